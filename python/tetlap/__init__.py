@@ -1,0 +1,66 @@
+"""tetlap: primal and dual Laplace operators and mass matrices of tetrahedral meshes.
+
+The primal Laplacian (P1 FEM / cotan, always negative semidefinite) and the circumcentric
+dual Laplacian (DEC / finite volume, non-negative weights on Delaunay meshes) of Alexa et
+al., "Properties of Laplace Operators for Tetrahedral Meshes" (SGP 2020), computed by a
+parallel Rust core and returned as ``scipy.sparse.csr_array``.
+
+Sign convention (paper Eq. 1): ``L[i, j] = w_ij`` on edges, ``L[i, i] = -sum_j w_ij``.
+
+>>> import tetlap
+>>> V, T = tetlap.meshes.cube(3)
+>>> L = tetlap.laplacian(V, T, kind="dual")
+>>> M = tetlap.mass(V, T, kind="circumcentric")
+>>> L.shape, round(M.sum(), 12)
+((64, 64), 1.0)
+"""
+
+from . import diagnostics, meshes
+from .properties import Report, check
+from .errors import (
+    DegenerateElementError,
+    DtypeError,
+    EmptyMeshError,
+    IndexRangeError,
+    InternalError,
+    NonFiniteError,
+    OptionError,
+    RepeatedVertexError,
+    ShapeError,
+    TetlapError,
+)
+from .assembly import (
+    Triplets,
+    edge_weights,
+    laplacian,
+    mass,
+    operators,
+    tet_contributions,
+    triplets,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "laplacian",
+    "mass",
+    "operators",
+    "triplets",
+    "edge_weights",
+    "tet_contributions",
+    "Triplets",
+    "check",
+    "Report",
+    "meshes",
+    "diagnostics",
+    "TetlapError",
+    "ShapeError",
+    "DtypeError",
+    "EmptyMeshError",
+    "IndexRangeError",
+    "NonFiniteError",
+    "RepeatedVertexError",
+    "DegenerateElementError",
+    "OptionError",
+    "InternalError",
+]

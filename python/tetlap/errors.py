@@ -1,0 +1,77 @@
+"""Exceptions of tetlap: one hierarchy under :class:`TetlapError` (a ``ValueError``).
+
+Every exception names the offending element in its message and, where it applies, as
+attributes (``element``: tet index, ``vertex``: vertex index, ``index``: the bad value).
+Objects that are not arrays at all raise a plain ``TypeError``.
+
+Example
+-------
+>>> import tetlap
+>>> try:
+...     tetlap.laplacian([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 7]])
+... except tetlap.IndexRangeError as e:
+...     print(e.element, e.index)
+0 7
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "TetlapError",
+    "ShapeError",
+    "DtypeError",
+    "EmptyMeshError",
+    "IndexRangeError",
+    "NonFiniteError",
+    "RepeatedVertexError",
+    "DegenerateElementError",
+    "OptionError",
+    "InternalError",
+]
+
+
+class TetlapError(ValueError):
+    """Base class of every tetlap error (a ``ValueError``)."""
+
+    def __init__(self, message: str, *, element: int | None = None,
+                 vertex: int | None = None, index: int | None = None) -> None:
+        super().__init__(message)
+        self.element = element
+        self.vertex = vertex
+        self.index = index
+
+
+class ShapeError(TetlapError):
+    """An array has the wrong number of dimensions or columns (e.g. ``V`` with d < 3)."""
+
+
+class DtypeError(TetlapError):
+    """An array has the wrong kind of values (e.g. float or bool vertex indices)."""
+
+
+class EmptyMeshError(TetlapError):
+    """The mesh has no vertices or no elements."""
+
+
+class IndexRangeError(TetlapError):
+    """An element refers to a vertex index that is negative or ``>= n``."""
+
+
+class NonFiniteError(TetlapError):
+    """A coordinate is NaN or infinite."""
+
+
+class RepeatedVertexError(TetlapError):
+    """An element uses the same vertex more than once."""
+
+
+class DegenerateElementError(TetlapError):
+    """An element has zero volume (or is too flat for a finite result in float64)."""
+
+
+class OptionError(TetlapError):
+    """An option has a value outside its domain (kind, threads, t, policy)."""
+
+
+class InternalError(TetlapError):
+    """A bug inside tetlap (a Rust panic caught at the boundary). Please report it."""

@@ -1,0 +1,109 @@
+"""Built-in, seeded, deterministic tetrahedral meshes.
+
+Every generator returns ``(V, T)``: ``V`` (n, 3) float64, ``T`` (m, 4) int64, positively
+oriented (``det[x1-x0, x2-x0, x3-x0] > 0``).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+__all__ = ["cube", "ball", "single_tet", "orient"]
+
+
+def orient(V, T) -> np.ndarray:
+    """A copy of ``T`` with every negatively oriented tet made positive (corners 2, 3 swapped)."""
+    V = np.asarray(V, dtype=np.float64)
+    T = np.array(T, dtype=np.int64)
+    e = V[T[:, 1:]] - V[T[:, :1]]
+    det = np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2]))
+    flip = det < 0
+    T[flip, 2], T[flip, 3] = T[flip, 3].copy(), T[flip, 2].copy()
+    return T
+
+
+def single_tet(kind: str = "corner"):
+    """One tet: ``"corner"`` (0,0,0),(1,0,0),(0,1,0),(0,0,1) or ``"regular"`` (edge 1)."""
+    if kind == "corner":
+        V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
+    elif kind == "regular":
+        s = 1 / np.sqrt(8)
+        V = s * np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=np.float64)
+    else:
+        raise ValueError(f'kind must be "corner" or "regular", got {kind!r}')
+    return V, np.array([[0, 1, 2, 3]], dtype=np.int64)
+
+
+def cube(k: int = 4, *, jitter: float = 0.0, seed: int = 0):
+    """The unit cube split into ``k^3`` cells of 6 Kuhn (Freudenthal) tets each.
+
+    ``jitter`` moves interior vertices by up to ``jitter / k`` per coordinate (uniform,
+    seeded), which breaks the grid's right angles while keeping the tets valid for
+    ``jitter < 0.25``.
+
+    Example
+    -------
+    >>> V, T = cube(2)
+    >>> V.shape, T.shape
+    ((27, 3), (48, 4))
+    """
+    if k < 1:
+        raise ValueError("k must be at least 1")
+    g = np.arange(k + 1)
+    V = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3).astype(np.float64)
+    index = lambda p: (p[..., 0] * (k + 1) + p[..., 1]) * (k + 1) + p[..., 2]
+    corners = np.stack(np.meshgrid(*(np.arange(k),) * 3, indexing="ij"), -1).reshape(-1, 1, 3)
+    tets = []
+    for perm in itertools.permutations(range(3)):
+        path = [np.zeros(3, dtype=np.int64)]
+        for axis in perm:
+            step = path[-1].copy()
+            step[axis] += 1
+            path.append(step)
+        tets.append(index(corners + np.array(path)))
+    T = np.concatenate(tets, axis=0)
+    if jitter:
+        interior = np.all((V > 0) & (V < k), axis=1)
+        rng = np.random.default_rng(seed)
+        V[interior] += rng.uniform(-jitter, jitter, size=(interior.sum(), 3))
+    V /= k
+    return V, orient(V, T)
+
+
+def _fibonacci_sphere(n: int) -> np.ndarray:
+    i = np.arange(n) + 0.5
+    z = 1 - 2 * i / n
+    r = np.sqrt(1 - z * z)
+    phi = np.pi * (1 + 5**0.5) * i
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+
+
+def ball(n: int = 2000, *, seed: int = 0):
+    """Random Delaunay tetrahedralisation of the unit ball (slivers included).
+
+    About ``4 n^(2/3)`` vertices lie exactly on the unit sphere (a Fibonacci lattice), the
+    rest are uniform random in the ball; the tets are the Delaunay tetrahedralisation
+    (``scipy.spatial.Delaunay``) with zero-volume hull slivers removed.
+
+    Example
+    -------
+    >>> V, T = ball(500, seed=1)
+    >>> bool(np.allclose(np.linalg.norm(V, axis=1).max(), 1.0))
+    True
+    """
+    from scipy.spatial import Delaunay
+
+    rng = np.random.default_rng(seed)
+    n_boundary = min(n - 1, int(4 * n ** (2 / 3)))
+    n_interior = n - n_boundary
+    direction = rng.normal(size=(n_interior, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    radius = 0.97 * rng.uniform(size=(n_interior, 1)) ** (1 / 3)
+    V = np.vstack([_fibonacci_sphere(n_boundary), radius * direction])
+    T = Delaunay(V).simplices.astype(np.int64)
+    e = V[T[:, 1:]] - V[T[:, :1]]
+    vol = np.abs(np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2]))) / 6
+    T = T[vol > 1e-12 * vol.mean()]
+    return V, orient(V, T)

@@ -1,0 +1,109 @@
+//! Inputs copied out of NumPy (with the GIL), outputs moved into NumPy without copying.
+
+use crate::errors::to_py;
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use tetlap::{Csr, Degenerate, LaplacianKind, MassKind, Options, TetMesh};
+
+/// Owned copies of the points and the validated `u32` tets.
+pub struct Input {
+    points: Vec<f64>,
+    dim: usize,
+    tets: Vec<[u32; 4]>,
+}
+
+impl Input {
+    pub fn new(
+        py: Python<'_>,
+        points: &PyReadonlyArray2<'_, f64>,
+        tets: &PyReadonlyArray2<'_, i64>,
+    ) -> PyResult<Self> {
+        let [n, dim] = [points.shape()[0], points.shape()[1]];
+        if tets.shape()[1] != 4 {
+            return Err(PyValueError::new_err("tets must have shape (m, 4)"));
+        }
+        let points = points.as_array().iter().copied().collect::<Vec<f64>>();
+        let flat = tets.as_array().iter().copied().collect::<Vec<i64>>();
+        let tets = tetlap::elements_from_i64::<4>(&flat, n).map_err(|e| to_py(py, e))?;
+        Ok(Input { points, dim, tets })
+    }
+
+    /// The validated mesh view (finiteness, dimensions, repeated vertices).
+    pub fn mesh(&self) -> tetlap::Result<TetMesh<'_>> {
+        TetMesh::new(&self.points, self.dim, &self.tets)
+    }
+}
+
+/// Parsed operator kinds and options.
+pub struct Spec {
+    lap: Option<LaplacianKind>,
+    mass: Option<MassKind>,
+    pub opts: Options,
+}
+
+impl Spec {
+    pub fn new(
+        _py: Python<'_>,
+        lap: Option<(&str, f64)>,
+        mass: Option<&str>,
+        threads: Option<usize>,
+        degenerate: &str,
+    ) -> PyResult<Self> {
+        let lap = lap
+            .map(|(kind, t)| match kind {
+                "primal" => Ok(LaplacianKind::Primal),
+                "dual" => Ok(LaplacianKind::Dual),
+                "affine" => Ok(LaplacianKind::Affine(t)),
+                _ => Err(PyValueError::new_err(format!("unknown Laplacian kind {kind:?}"))),
+            })
+            .transpose()?;
+        let mass = mass
+            .map(|kind| match kind {
+                "barycentric" => Ok(MassKind::Barycentric),
+                "circumcentric" => Ok(MassKind::Circumcentric),
+                "fem" => Ok(MassKind::Fem),
+                _ => Err(PyValueError::new_err(format!("unknown mass kind {kind:?}"))),
+            })
+            .transpose()?;
+        let degenerate = match degenerate {
+            "raise" => Degenerate::Raise,
+            "skip" => Degenerate::Skip,
+            _ => return Err(PyValueError::new_err(format!("unknown degenerate policy {degenerate:?}"))),
+        };
+        Ok(Spec { lap, mass, opts: Options { threads, degenerate } })
+    }
+
+    pub fn lap(&self) -> LaplacianKind {
+        self.lap.expect("a Laplacian kind was parsed")
+    }
+
+    pub fn mass(&self) -> MassKind {
+        self.mass.expect("a mass kind was parsed")
+    }
+}
+
+/// `(data, indices, indptr)` with int32 indices when they fit, int64 otherwise.
+pub fn csr_arrays<'py>(py: Python<'py>, m: Csr) -> PyResult<Bound<'py, PyTuple>> {
+    let data = PyArray1::from_vec(py, m.data).into_any();
+    if m.indices.len() < i32::MAX as usize {
+        let indices: Vec<i32> = m.indices.into_iter().map(|j| j as i32).collect();
+        let indptr: Vec<i32> = m.indptr.into_iter().map(|p| p as i32).collect();
+        PyTuple::new(py, [data, PyArray1::from_vec(py, indices).into_any(), PyArray1::from_vec(py, indptr).into_any()])
+    } else {
+        let indices: Vec<i64> = m.indices.into_iter().map(i64::from).collect();
+        let indptr: Vec<i64> = m.indptr.into_iter().map(|p| p as i64).collect();
+        PyTuple::new(py, [data, PyArray1::from_vec(py, indices).into_any(), PyArray1::from_vec(py, indptr).into_any()])
+    }
+}
+
+/// A `(rows, K)` array from fixed-size rows, moved without copying the values twice.
+pub fn rows<'py, T: numpy::Element + Copy, const K: usize>(
+    py: Python<'py>,
+    v: Vec<[T; K]>,
+) -> PyResult<Bound<'py, PyArray2<T>>> {
+    let m = v.len();
+    let flat: Vec<T> = v.into_iter().flatten().collect();
+    PyArray1::from_vec(py, flat).reshape([m, K])
+}

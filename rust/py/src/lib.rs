@@ -1,0 +1,159 @@
+//! `tetlap._core`: the thin PyO3 layer over the `tetlap` crate.
+//!
+//! Every function copies its inputs (so no other Python thread can change them under the
+//! computation), validates them in the core, releases the GIL for the computation, catches
+//! any panic, and hands the output arrays to NumPy without copying. The public API, with
+//! its array-like conversions and SciPy wrapping, is the Python package `tetlap`.
+
+mod convert;
+mod errors;
+
+use pyo3::prelude::*;
+
+#[pymodule]
+mod _core {
+    use crate::convert::{csr_arrays, rows, Input, Spec};
+    use crate::errors::guarded;
+    use numpy::{PyArray1, PyArray2, PyReadonlyArray2};
+    use pyo3::prelude::*;
+    use pyo3::types::PyTuple;
+    use tetlap::Mass;
+
+    type Points<'py> = PyReadonlyArray2<'py, f64>;
+    type Tets<'py> = PyReadonlyArray2<'py, i64>;
+
+    /// Laplacian as CSR arrays `(data, indices, indptr)`.
+    #[pyfunction]
+    #[pyo3(signature = (points, tets, kind, t, threads, degenerate))]
+    fn laplacian<'py>(
+        py: Python<'py>,
+        points: Points<'py>,
+        tets: Tets<'py>,
+        kind: &str,
+        t: f64,
+        threads: Option<usize>,
+        degenerate: &str,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let input = Input::new(py, &points, &tets)?;
+        let spec = Spec::new(py, Some((kind, t)), None, threads, degenerate)?;
+        let l = guarded(py, move || tetlap::laplacian(&input.mesh()?, spec.lap(), &spec.opts))?;
+        csr_arrays(py, l)
+    }
+
+    /// Mass matrix as `("lumped", diagonal)` or `("csr", (data, indices, indptr))`.
+    #[pyfunction]
+    #[pyo3(signature = (points, tets, kind, threads, degenerate))]
+    fn mass<'py>(
+        py: Python<'py>,
+        points: Points<'py>,
+        tets: Tets<'py>,
+        kind: &str,
+        threads: Option<usize>,
+        degenerate: &str,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let input = Input::new(py, &points, &tets)?;
+        let spec = Spec::new(py, None, Some(kind), threads, degenerate)?;
+        let m = guarded(py, move || tetlap::mass(&input.mesh()?, spec.mass(), &spec.opts))?;
+        mass_arrays(py, m)
+    }
+
+    /// Laplacian and mass in one pass: `(laplacian_csr_arrays, mass_arrays)`.
+    #[pyfunction]
+    #[pyo3(signature = (points, tets, kind, t, mass_kind, threads, degenerate))]
+    #[allow(clippy::too_many_arguments)]
+    fn operators<'py>(
+        py: Python<'py>,
+        points: Points<'py>,
+        tets: Tets<'py>,
+        kind: &str,
+        t: f64,
+        mass_kind: &str,
+        threads: Option<usize>,
+        degenerate: &str,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let input = Input::new(py, &points, &tets)?;
+        let spec = Spec::new(py, Some((kind, t)), Some(mass_kind), threads, degenerate)?;
+        let (l, m) = guarded(py, move || {
+            tetlap::operators(&input.mesh()?, spec.lap(), spec.mass(), &spec.opts)
+        })?;
+        PyTuple::new(py, [csr_arrays(py, l)?, mass_arrays(py, m)?])
+    }
+
+    /// Per-tet edge weights, `(m, 6)` float64.
+    #[pyfunction]
+    #[pyo3(signature = (points, tets, kind, t, threads, degenerate))]
+    fn tet_contributions<'py>(
+        py: Python<'py>,
+        points: Points<'py>,
+        tets: Tets<'py>,
+        kind: &str,
+        t: f64,
+        threads: Option<usize>,
+        degenerate: &str,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let input = Input::new(py, &points, &tets)?;
+        let spec = Spec::new(py, Some((kind, t)), None, threads, degenerate)?;
+        let w = guarded(py, move || {
+            tetlap::tet_contributions(&input.mesh()?, spec.lap(), &spec.opts)
+        })?;
+        rows(py, w)
+    }
+
+    /// Unsummed triplets `(rows, cols, vals)`, 16 per tet.
+    #[pyfunction]
+    #[pyo3(signature = (points, tets, kind, t, threads, degenerate))]
+    fn triplets<'py>(
+        py: Python<'py>,
+        points: Points<'py>,
+        tets: Tets<'py>,
+        kind: &str,
+        t: f64,
+        threads: Option<usize>,
+        degenerate: &str,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let input = Input::new(py, &points, &tets)?;
+        let spec = Spec::new(py, Some((kind, t)), None, threads, degenerate)?;
+        let coo =
+            guarded(py, move || tetlap::triplets(&input.mesh()?, spec.lap(), &spec.opts))?;
+        let as_i64 = |v: Vec<u32>| v.into_iter().map(i64::from).collect::<Vec<_>>();
+        PyTuple::new(
+            py,
+            [
+                PyArray1::from_vec(py, as_i64(coo.rows)).into_any(),
+                PyArray1::from_vec(py, as_i64(coo.cols)).into_any(),
+                PyArray1::from_vec(py, coo.vals).into_any(),
+            ],
+        )
+    }
+
+    /// Unique edges `(E, 2)` int64 and their summed weights `(E,)`.
+    #[pyfunction]
+    #[pyo3(signature = (points, tets, kind, t, threads, degenerate))]
+    fn edge_weights<'py>(
+        py: Python<'py>,
+        points: Points<'py>,
+        tets: Tets<'py>,
+        kind: &str,
+        t: f64,
+        threads: Option<usize>,
+        degenerate: &str,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let input = Input::new(py, &points, &tets)?;
+        let spec = Spec::new(py, Some((kind, t)), None, threads, degenerate)?;
+        let (edges, w) =
+            guarded(py, move || tetlap::edge_weights(&input.mesh()?, spec.lap(), &spec.opts))?;
+        let edges: Vec<[i64; 2]> = edges.into_iter().map(|e| e.map(i64::from)).collect();
+        PyTuple::new(py, [rows(py, edges)?.into_any(), PyArray1::from_vec(py, w).into_any()])
+    }
+
+    fn mass_arrays<'py>(py: Python<'py>, m: Mass) -> PyResult<Bound<'py, PyTuple>> {
+        match m {
+            Mass::Lumped(d) => {
+                PyTuple::new(py, ["lumped".into_pyobject(py)?.into_any(), PyArray1::from_vec(py, d).into_any()])
+            }
+            Mass::Consistent(c) => {
+                PyTuple::new(py, ["csr".into_pyobject(py)?.into_any(), csr_arrays(py, c)?.into_any()])
+            }
+        }
+    }
+}

@@ -1,0 +1,142 @@
+//! One tet's coordinates in its own 3-space, scaled by an exact power of two.
+//!
+//! Kernels see a tet as three edge vectors `e_k = x_k - x_0` (k = 1, 2, 3) in R^3. For an
+//! immersed tet (`dim > 3`) they are expressed in an orthonormal frame of the tet's affine
+//! hull (a QR factorisation by twice-iterated Gram-Schmidt: lengths and angles are kept,
+//! orientation is not, and no kernel depends on it). Every tet is also scaled by a power of
+//! two so that its largest edge component lies in `[1/2, 1)`: the scaling is exact, so
+//! coordinates as large as 1e150 or as small as 1e-150 neither overflow nor underflow in
+//! the kernels' fourth-degree products.
+
+use glam::DVec3;
+
+/// A tet as seen by the kernels: `edges[k-1] = (x_k - x_0) / scale`, `scale` a power of two.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocalTet {
+    /// Scaled edge vectors from vertex 0 to vertices 1, 2, 3.
+    pub edges: [DVec3; 3],
+    /// The power of two that was divided out (lengths scale by it, volumes by its cube).
+    pub scale: f64,
+}
+
+/// `2^k` for `k` in `[-1022, 1023]`, exactly.
+fn pow2(k: i32) -> f64 {
+    debug_assert!((-1022..=1023).contains(&k));
+    f64::from_bits(((k + 1023) as u64) << 52)
+}
+
+/// The `k` with `x / 2^k` in `[1/2, 1)`, for a normal `x > 0`.
+fn scale_exponent(x: f64) -> i32 {
+    ((x.to_bits() >> 52) & 0x7ff) as i32 - 1022
+}
+
+/// Edge vectors of a tet in R^d (`d = x[0].len()`), in its own 3-space, scaled.
+///
+/// `scratch` must hold at least `3 * d` values when `d > 3` (unused for `d = 3`).
+/// All four points coinciding gives zero edges (a degenerate tet).
+pub fn local_tet(x: [&[f64]; 4], scratch: &mut [f64]) -> LocalTet {
+    let d = x[0].len();
+    let max_diff = |pre: f64| {
+        let mut m = 0.0f64;
+        for xk in &x[1..] {
+            for c in 0..d {
+                m = m.max((xk[c] * pre - x[0][c] * pre).abs());
+            }
+        }
+        m
+    };
+    // Bring the largest difference into the normal range without rounding anything that
+    // matters: a prescale by 2^-600 for differences that overflow or come close,
+    // by 2^600 for differences near the subnormal range.
+    let mut pre = 1.0;
+    let mut max_abs = max_diff(pre);
+    if !(max_abs < pow2(1000)) {
+        pre = pow2(-600);
+        max_abs = max_diff(pre);
+    } else if max_abs < pow2(-1000) && max_abs > 0.0 {
+        pre = pow2(600);
+        max_abs = max_diff(pre);
+    }
+    if max_abs == 0.0 {
+        return LocalTet { edges: [DVec3::ZERO; 3], scale: 1.0 };
+    }
+    let k = scale_exponent(max_abs);
+    let inv = pow2(-k);
+    let scale = pow2(k) / pre;
+    let diff = |k: usize, c: usize| (x[k][c] * pre - x[0][c] * pre) * inv;
+    if d == 3 {
+        let e = |k| DVec3::new(diff(k, 0), diff(k, 1), diff(k, 2));
+        return LocalTet { edges: [e(1), e(2), e(3)], scale };
+    }
+    // R of the QR factorisation of the 3 x d edge matrix: r[j][k] = q_j . e_k, with the
+    // orthonormal q_j built in `scratch` by Gram-Schmidt, iterated twice for stability.
+    let mut r = [[0.0f64; 3]; 3];
+    for kk in 0..3 {
+        let (done, rest) = scratch.split_at_mut(kk * d);
+        let v = &mut rest[..d];
+        for (c, vc) in v.iter_mut().enumerate() {
+            *vc = diff(kk + 1, c);
+        }
+        for _pass in 0..2 {
+            for j in 0..kk {
+                let qj = &done[j * d..(j + 1) * d];
+                let proj: f64 = qj.iter().zip(v.iter()).map(|(a, b)| a * b).sum();
+                r[j][kk] += proj;
+                for (vc, qc) in v.iter_mut().zip(qj) {
+                    *vc -= proj * qc;
+                }
+            }
+        }
+        let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+        r[kk][kk] = norm;
+        if norm > 0.0 {
+            v.iter_mut().for_each(|a| *a /= norm);
+        }
+    }
+    LocalTet {
+        edges: [
+            DVec3::new(r[0][0], 0.0, 0.0),
+            DVec3::new(r[0][1], r[1][1], 0.0),
+            DVec3::new(r[0][2], r[1][2], r[2][2]),
+        ],
+        scale,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scaling_is_an_exact_power_of_two() {
+        let x: [[f64; 3]; 4] = [[0.0; 3], [3.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let t = local_tet([&x[0], &x[1], &x[2], &x[3]], &mut []);
+        assert_eq!(t.scale, 4.0);
+        assert_eq!(t.edges[0], DVec3::new(0.75, 0.0, 0.0));
+    }
+
+    #[test]
+    fn tiny_and_huge_tets_are_rescaled() {
+        for s in [1e-150, 1e150, 1e-300, 1e300] {
+            let x: [[f64; 3]; 4] = [[0.0; 3], [s, 0.0, 0.0], [0.0, s, 0.0], [0.0, 0.0, s]];
+            let t = local_tet([&x[0], &x[1], &x[2], &x[3]], &mut []);
+            assert!((0.5..1.0).contains(&t.edges[0].x), "{s}: {:?}", t);
+            assert!((t.edges[0].x * t.scale - s).abs() <= 1e-15 * s);
+        }
+    }
+
+    #[test]
+    fn immersed_tet_keeps_lengths_and_angles() {
+        // The corner tet rotated into R^4 (a rotation in the x-w plane).
+        let (c, s) = (0.6f64, 0.8f64);
+        let rot = |p: [f64; 3]| [c * p[0], p[1], p[2], s * p[0]];
+        let x = [rot([0.; 3]), rot([1., 0., 0.]), rot([0., 1., 0.]), rot([0., 0., 1.])];
+        let mut scratch = vec![0.0; 12];
+        let t = local_tet([&x[0], &x[1], &x[2], &x[3]], &mut scratch);
+        let e: Vec<DVec3> = t.edges.iter().map(|e| *e * t.scale).collect();
+        for (a, b) in [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)] {
+            let want = if a == b { 1.0 } else { 0.0 };
+            assert!((e[a].dot(e[b]) - want).abs() < 1e-15);
+        }
+    }
+}

@@ -1,0 +1,55 @@
+//! # tetlap — Laplace operators of tetrahedral meshes
+//!
+//! The two discrete Laplacians of Alexa, Herholz, Kohlbrenner and Sorkine-Hornung,
+//! *Properties of Laplace Operators for Tetrahedral Meshes* (SGP 2020), with their mass
+//! matrices:
+//!
+//! * the **primal** Laplacian (P1 FEM / cotan, Eq. 7): always negative semidefinite;
+//! * the **dual** Laplacian (circumcentric DEC / finite volume, Eq. 17-21): non-negative
+//!   weights on Delaunay meshes (a maximum principle), but indefinite on bad meshes;
+//! * barycentric, circumcentric (signed dual-cell volumes) and consistent P1 mass matrices.
+//!
+//! ## Conventions
+//! * Points: `n x dim` row-major `f64`, `dim >= 3` (`dim > 3`: an immersed mesh, every tet
+//!   computed in its own 3-space). Tets: `[u32; 4]`, 0-based, **any orientation**: results
+//!   never depend on the orientation or vertex order of a tet.
+//! * Sign (paper Eq. 1): `L[i, j] = w_ij` for an edge, `L[i, i] = -sum_j w_ij`; rows sum to
+//!   zero; the primal `L` is negative semidefinite.
+//! * Local edge order inside a tet: `(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)`.
+//! * Deterministic: the same input gives bitwise-identical output for any thread count.
+//!
+//! ## Example
+//! ```
+//! use tetlap::{operators, LaplacianKind, Mass, MassKind, Options, TetMesh};
+//! // two tets sharing the face (1, 2, 3), the second one negatively oriented
+//! let points = [0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.];
+//! let tets = [[0, 1, 2, 3], [4, 2, 1, 3]];
+//! let mesh = TetMesh::new(&points, 3, &tets)?;
+//! let (l, m) = operators(&mesh, LaplacianKind::Dual, MassKind::Circumcentric, &Options::default())?;
+//! assert_eq!(l.n, 5);
+//! let row_sum: f64 = (0..5).map(|j| l.get(1, j)).sum();
+//! assert!(row_sum.abs() < 1e-15);
+//! let Mass::Lumped(m) = m else { unreachable!() };
+//! assert!((m.iter().sum::<f64>() - 0.5).abs() < 1e-14); // total volume 1/6 + 1/3
+//! # Ok::<(), tetlap::Error>(())
+//! ```
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+mod assemble;
+mod csr;
+mod error;
+mod geometry;
+pub mod local;
+mod mesh;
+mod operators;
+mod topology;
+
+pub use assemble::{Degenerate, LaplacianKind, MassKind, Options};
+pub use csr::{Coo, Csr};
+pub use error::{Error, Result};
+pub use geometry::{local_tet, LocalTet};
+pub use mesh::{elements_from_i64, TetMesh, MAX_VERTICES};
+pub use operators::{edge_weights, laplacian, mass, operators, tet_contributions, triplets, Mass};
+pub use topology::{Incidence, Topology, DIAGONAL};

@@ -1,0 +1,150 @@
+//! Validated, borrowed view of a tetrahedral mesh: the one place where input is checked.
+
+use crate::error::{Error, Result};
+
+/// Largest vertex count: indices are `u32` in the core and `i32` in the CSR output.
+pub const MAX_VERTICES: usize = i32::MAX as usize;
+
+/// A tetrahedral mesh whose input has been checked once.
+///
+/// * `points`: `n * dim` coordinates, row-major (vertex `i` is `points[i*dim..(i+1)*dim]`),
+///   `dim >= 3`; `dim > 3` means the mesh is immersed (e.g. a 3-sphere in R^4).
+/// * `tets`: `m` tets, 0-based vertex indices in any orientation.
+///
+/// Checked: `dim >= 3`, `points.len()` a multiple of `dim`, at least one vertex and one tet,
+/// at most [`MAX_VERTICES`] vertices, finite coordinates, indices `< n`, four distinct
+/// vertices per tet. Degenerate (zero-volume) tets are detected later by the kernels, under
+/// the [`crate::Degenerate`] policy.
+///
+/// ```
+/// let points = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+/// let mesh = tetlap::TetMesh::new(&points, 3, &[[0, 1, 2, 3]]).unwrap();
+/// assert_eq!((mesh.n_vertices(), mesh.n_tets()), (4, 1));
+/// assert!(tetlap::TetMesh::new(&points, 3, &[[0, 1, 2, 4]]).is_err());
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct TetMesh<'a> {
+    points: &'a [f64],
+    dim: usize,
+    tets: &'a [[u32; 4]],
+}
+
+impl<'a> TetMesh<'a> {
+    /// Checks the input and returns the view, or the first problem found.
+    pub fn new(points: &'a [f64], dim: usize, tets: &'a [[u32; 4]]) -> Result<Self> {
+        let n = check_points(points, dim, 3)?;
+        check_elements(tets, n)?;
+        Ok(TetMesh { points, dim, tets })
+    }
+
+    /// Number of vertices `n`.
+    pub fn n_vertices(&self) -> usize {
+        self.points.len() / self.dim
+    }
+
+    /// Number of tets `m`.
+    pub fn n_tets(&self) -> usize {
+        self.tets.len()
+    }
+
+    /// Ambient dimension `d >= 3`.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// The coordinates, row-major `(n, dim)`.
+    pub fn points(&self) -> &'a [f64] {
+        self.points
+    }
+
+    /// The tets.
+    pub fn tets(&self) -> &'a [[u32; 4]] {
+        self.tets
+    }
+
+    /// Coordinates of vertex `i` (length `dim`).
+    #[inline]
+    pub fn point(&self, i: u32) -> &'a [f64] {
+        let i = i as usize * self.dim;
+        &self.points[i..i + self.dim]
+    }
+}
+
+/// Checks `points` as an `(n, dim)` array with `dim >= min_dim` and finite entries; returns `n`.
+pub(crate) fn check_points(points: &[f64], dim: usize, min_dim: usize) -> Result<usize> {
+    if dim < min_dim {
+        return Err(Error::Shape {
+            message: format!(
+                "points must have at least {min_dim} coordinates per vertex, got {dim}"
+            ),
+        });
+    }
+    if points.len() % dim != 0 {
+        return Err(Error::Shape {
+            message: format!("{} coordinates do not form rows of {dim}", points.len()),
+        });
+    }
+    let n = points.len() / dim;
+    if n > MAX_VERTICES {
+        return Err(Error::TooManyVertices { n_vertices: n, max: MAX_VERTICES });
+    }
+    if let Some(k) = points.iter().position(|x| !x.is_finite()) {
+        return Err(Error::NonFiniteCoordinate {
+            vertex: k / dim,
+            coordinate: k % dim,
+            value: points[k],
+        });
+    }
+    Ok(n)
+}
+
+/// Checks index range and distinct corners of every element.
+pub(crate) fn check_elements<const K: usize>(elements: &[[u32; K]], n: usize) -> Result<()> {
+    if n == 0 || elements.is_empty() {
+        return Err(Error::EmptyMesh { n_vertices: n, n_elements: elements.len() });
+    }
+    for (element, e) in elements.iter().enumerate() {
+        for (corner, &v) in e.iter().enumerate() {
+            if v as usize >= n {
+                return Err(Error::IndexOutOfRange {
+                    element,
+                    corner,
+                    index: v as i64,
+                    n_vertices: n,
+                });
+            }
+            if e[..corner].contains(&v) {
+                return Err(Error::RepeatedVertex { element, vertex: v });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Converts signed 64-bit indices (`k` per element, row-major) to `u32` elements,
+/// naming the first index that is negative or `>= n_vertices`.
+///
+/// This is how bindings hand over index arrays of any integer type without an unchecked
+/// cast.
+pub fn elements_from_i64<const K: usize>(flat: &[i64], n_vertices: usize) -> Result<Vec<[u32; K]>> {
+    if n_vertices > MAX_VERTICES {
+        return Err(Error::TooManyVertices { n_vertices, max: MAX_VERTICES });
+    }
+    if flat.len() % K != 0 {
+        return Err(Error::Shape {
+            message: format!("{} indices do not form rows of {K}", flat.len()),
+        });
+    }
+    if let Some(k) = flat.iter().position(|&i| i < 0 || i as u64 >= n_vertices as u64) {
+        return Err(Error::IndexOutOfRange {
+            element: k / K,
+            corner: k % K,
+            index: flat[k],
+            n_vertices,
+        });
+    }
+    Ok(flat
+        .chunks_exact(K)
+        .map(|c| std::array::from_fn(|j| c[j] as u32))
+        .collect())
+}
