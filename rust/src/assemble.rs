@@ -83,7 +83,7 @@ fn evaluate(
     lap: Option<LaplacianKind>,
     mass: Option<MassKind>,
 ) -> std::result::Result<TetValues, Fault> {
-    if local::volume(t) == 0.0 {
+    if local::is_degenerate(t) {
         return Err(Fault::ZeroVolume);
     }
     let needs_dual = matches!(lap, Some(LaplacianKind::Dual | LaplacianKind::Affine(_)))

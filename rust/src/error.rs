@@ -23,7 +23,7 @@ pub enum Error {
     RepeatedVertex { element: usize, vertex: u32 },
     /// An element has exactly zero volume (its vertices are affinely dependent).
     Degenerate { element: usize },
-    /// An element is so close to degenerate that its contribution overflows `f64`.
+    /// An element's contribution overflows `f64` (nearly degenerate, or huge coordinates).
     NonFiniteResult { element: usize },
     /// An option has a value outside its domain (e.g. `threads = 0`, `t` outside `[0, 1]`).
     InvalidOption { message: String },
@@ -80,8 +80,9 @@ impl fmt::Display for Error {
             ),
             Error::NonFiniteResult { element } => write!(
                 f,
-                "element {element} is so close to degenerate that its contribution is not \
-                 finite in double precision; pass degenerate=\"skip\" to drop it"
+                "element {element}: its contribution is not finite in double precision \
+                 (a nearly degenerate tet, or coordinates so large that its volume \
+                 overflows); pass degenerate=\"skip\" to drop it"
             ),
             Error::InvalidOption { message } => write!(f, "{message}"),
         }

@@ -41,6 +41,13 @@ impl Frame {
     }
 }
 
+/// Whether the tet's corners are affinely dependent (zero determinant, in the scaled frame
+/// so that tiny tets are not mistaken for flat ones).
+pub fn is_degenerate(t: &LocalTet) -> bool {
+    let [e1, e2, e3] = t.edges;
+    e1.dot(e2.cross(e3)) == 0.0
+}
+
 /// Unsigned volume of the tet (`|det[x1-x0, x2-x0, x3-x0]| / 6`), in the caller's units.
 ///
 /// Exactly zero for a degenerate tet (affinely dependent corners), up to rounding of the

@@ -1,0 +1,63 @@
+"""Shared fixtures: the real-mesh corpus and small meshes.
+
+Real meshes are read from ``$TETLAP_MESHES`` (default: ``../shared/data/meshes`` beside
+the repository). Tests that need them skip with a reason when the folder is missing; CI
+checks that it exists before running the suite.
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+
+import numpy as np
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+MESH_DIR = pathlib.Path(os.environ.get("TETLAP_MESHES", ROOT.parent / "shared" / "data" / "meshes"))
+MESH_SUFFIXES = {".mesh", ".msh", ".vtu", ".vtk", ".ele"}
+
+
+def real_mesh_paths() -> list[pathlib.Path]:
+    """Every mesh file of the corpus (TetGen pairs by their .ele), sorted; [] if absent."""
+    if not MESH_DIR.is_dir():
+        return []
+    return sorted(p for p in MESH_DIR.iterdir() if p.suffix in MESH_SUFFIXES)
+
+
+def real_mesh_params():
+    paths = real_mesh_paths()
+    if not paths:
+        return [pytest.param(None, marks=pytest.mark.skip(
+            reason=f"real-mesh corpus not found at {MESH_DIR} (set TETLAP_MESHES)"))]
+    return [pytest.param(p, id=p.name) for p in paths]
+
+
+_cache: dict = {}
+
+
+def read_mesh(path: pathlib.Path):
+    """(V, T) of a corpus file, cached for the session (read with meshio)."""
+    if path not in _cache:
+        import warnings
+
+        import tetlap.io
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            _cache[path] = tetlap.io.read(path)
+    V, T = _cache[path]
+    return V.copy(), T.copy()
+
+
+@pytest.fixture(params=real_mesh_params())
+def real_mesh(request):
+    """(name, V, T) for every mesh of the corpus."""
+    path = request.param
+    V, T = read_mesh(path)
+    return path.name, V, T
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(12345)

@@ -1,0 +1,183 @@
+"""Array-likes in, clear errors for bad input, inputs never modified."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tetlap
+
+V0, T0 = tetlap.meshes.cube(2, jitter=0.1, seed=1)
+FUNCTIONS = [
+    lambda V, T, **kw: tetlap.laplacian(V, T, "primal", **kw),
+    lambda V, T, **kw: tetlap.laplacian(V, T, "dual", **kw),
+    lambda V, T, **kw: tetlap.mass(V, T, "circumcentric", **kw),
+    lambda V, T, **kw: tetlap.mass(V, T, "fem", **kw),
+    lambda V, T, **kw: tetlap.operators(V, T, "dual", "barycentric", **kw)[0],
+    lambda V, T, **kw: tetlap.triplets(V, T, **kw).vals,
+    lambda V, T, **kw: tetlap.edge_weights(V, T, **kw)[1],
+    lambda V, T, **kw: tetlap.tet_contributions(V, T, **kw),
+]
+
+
+def dense(x):
+    return x.toarray() if hasattr(x, "toarray") else np.asarray(x)
+
+
+@pytest.mark.parametrize("f", FUNCTIONS)
+@pytest.mark.parametrize("convert", [
+    lambda V, T: (V.tolist(), T.tolist()),
+    lambda V, T: (np.asfortranarray(V), np.asfortranarray(T)),
+    lambda V, T: (V, T.astype(np.int32)),
+    lambda V, T: (V, T.astype(np.uint32)),
+    lambda V, T: (V, T.astype(np.uint64)),
+    lambda V, T: (V, T.astype(np.int16)),
+], ids=["lists", "fortran", "int32", "uint32", "uint64", "int16"])
+def test_array_likes_give_identical_results(f, convert):
+    V, T = convert(V0.copy(), T0.copy())
+    np.testing.assert_array_equal(dense(f(V, T)), dense(f(V0, T0)))
+
+
+def test_float32_coordinates_are_accepted():
+    L32 = tetlap.laplacian(V0.astype(np.float32), T0)
+    L64 = tetlap.laplacian(V0.astype(np.float32).astype(np.float64), T0)
+    assert (L32 != L64).nnz == 0
+
+
+@pytest.mark.parametrize("f", FUNCTIONS)
+def test_inputs_are_never_modified_and_read_only_views_work(f):
+    V = np.asfortranarray(V0.copy())
+    T = T0.copy()
+    V.flags.writeable = False
+    T.flags.writeable = False
+    v_before, t_before = V.copy(), T.copy()
+    f(V, T)
+    np.testing.assert_array_equal(V, v_before)
+    np.testing.assert_array_equal(T, t_before)
+    # non-contiguous views
+    Vbig = np.zeros((len(V0), 6))
+    Vbig[:, ::2] = V0
+    Tbig = np.zeros((len(T0), 8), dtype=np.int64)
+    Tbig[:, 1::2] = T0
+    np.testing.assert_array_equal(dense(f(Vbig[:, ::2], Tbig[:, 1::2])), dense(f(V0, T0)))
+
+
+CORNER_V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+
+
+@pytest.mark.parametrize("V, T, error, match", [
+    (np.zeros(12), [[0, 1, 2, 3]], tetlap.ShapeError, r"shape \(n, d\)"),
+    (np.zeros((4, 2)), [[0, 1, 2, 3]], tetlap.ShapeError, "at least 3 coordinates"),
+    (CORNER_V, [[0, 1, 2]], tetlap.ShapeError, r"\(m, 4\)"),
+    (CORNER_V, [[0, 1, 2, 3, 4]], tetlap.ShapeError, r"\(m, 4\)"),
+    (CORNER_V, [0, 1, 2, 3], tetlap.ShapeError, r"\(m, 4\)"),
+    (CORNER_V, [[0.0, 1.0, 2.0, 3.0]], tetlap.DtypeError, "integer"),
+    (CORNER_V, [[True, False, True, False]], tetlap.DtypeError, "integer"),
+    ([["a", "b", "c"]] * 4, [[0, 1, 2, 3]], tetlap.DtypeError, "real numbers"),
+    ([[0, 0, 0], [1, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]], tetlap.ShapeError, "rectangular"),
+    (CORNER_V, [[0, 1, 2, -1]], tetlap.IndexRangeError, "element 0 refers to vertex -1"),
+    (CORNER_V, [[0, 1, 2, 3], [0, 1, 2, 4]], tetlap.IndexRangeError,
+     "element 1 refers to vertex 4"),
+    (CORNER_V, np.array([[0, 1, 2, 2**64 - 1]], dtype=np.uint64), tetlap.IndexRangeError,
+     "element 0"),
+    (CORNER_V, [[0, 1, 2, 2**40]], tetlap.IndexRangeError, "element 0"),
+    ([[0, 0, 0], [1, 0, 0], [0, np.nan, 0], [0, 0, 1]], [[0, 1, 2, 3]],
+     tetlap.NonFiniteError, "vertex 2"),
+    ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, np.inf]], [[0, 1, 2, 3]],
+     tetlap.NonFiniteError, "vertex 3"),
+    (CORNER_V, np.zeros((0, 4), dtype=int), tetlap.EmptyMeshError, "no elements"),
+    (np.zeros((0, 3)), [[0, 1, 2, 3]], tetlap.EmptyMeshError, "no vertices"),
+    (CORNER_V, [[0, 1, 1, 3]], tetlap.RepeatedVertexError, "element 0 uses vertex 1"),
+    ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], [[0, 1, 2, 3]],
+     tetlap.DegenerateElementError, "element 0 is degenerate"),
+    ([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]], [[0, 1, 2, 3]],
+     tetlap.DegenerateElementError, "element 0"),
+    ([[5, 5, 5]] * 4, [[0, 1, 2, 3]], tetlap.DegenerateElementError, "element 0"),
+])
+def test_bad_input_raises_a_named_value_error(V, T, error, match):
+    for f in FUNCTIONS:
+        with pytest.raises(error, match=match) as info:
+            f(V, T)
+        assert isinstance(info.value, ValueError)
+
+
+def test_errors_carry_the_offending_element():
+    with pytest.raises(tetlap.IndexRangeError) as e:
+        tetlap.laplacian(CORNER_V, [[0, 1, 2, 3], [3, 2, 9, 0]])
+    assert (e.value.element, e.value.index) == (1, 9)
+    V = np.array(CORNER_V + [[0.5, 0.5, 0]], dtype=float)
+    with pytest.raises(tetlap.DegenerateElementError) as e:
+        tetlap.laplacian(V, [[0, 1, 2, 3], [0, 1, 2, 4]])
+    assert e.value.element == 1
+    with pytest.raises(tetlap.NonFiniteError) as e:
+        tetlap.mass([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, np.nan]], [[0, 1, 2, 3]])
+    assert e.value.vertex == 3
+
+
+@pytest.mark.parametrize("bad", [None, 3.5, "mesh", {"V": 1}, object()])
+def test_non_arrays_raise_type_error(bad):
+    with pytest.raises(TypeError):
+        tetlap.laplacian(bad, [[0, 1, 2, 3]])
+    with pytest.raises(TypeError):
+        tetlap.laplacian(CORNER_V, bad)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"kind": "cotan"}, "kind"),
+    ({"kind": 1.5}, r"\[0, 1\]"),
+    ({"kind": -0.1}, r"\[0, 1\]"),
+    ({"kind": True}, "kind"),
+    ({"threads": 0}, "threads"),
+    ({"threads": -2}, "threads"),
+    ({"threads": 1.5}, "threads"),
+    ({"degenerate": "ignore"}, "degenerate"),
+])
+def test_bad_options_raise_option_error(kwargs, match):
+    with pytest.raises(tetlap.OptionError, match=match):
+        tetlap.laplacian(CORNER_V, [[0, 1, 2, 3]], **kwargs)
+
+
+def test_bad_mass_kind():
+    with pytest.raises(tetlap.OptionError, match="mass kind"):
+        tetlap.mass(CORNER_V, [[0, 1, 2, 3]], kind="voronoi")
+
+
+def test_degenerate_skip_drops_only_the_flat_tet():
+    V = np.array(CORNER_V + [[0.5, 0.5, 0], [0.2, 0.2, -1]], dtype=float)
+    T = [[0, 1, 2, 3], [0, 1, 2, 4], [0, 1, 2, 5]]
+    for kind in ("primal", "dual"):
+        L = tetlap.laplacian(V, T, kind, degenerate="skip")
+        expected = tetlap.laplacian(V, [T[0], T[2]], kind).toarray()
+        np.testing.assert_array_equal(L.toarray(), expected)
+        assert np.isfinite(L.data).all()
+        assert L[0, 4] == 0 and L.nnz > expected.astype(bool).sum()  # explicit zeros kept
+    m = tetlap.mass(V, T, "circumcentric", degenerate="skip").diagonal()
+    assert m[4] == 0 and m.sum() == pytest.approx(1 / 6 + 1 / 6 * 1)
+
+
+def test_unreferenced_vertices_get_empty_rows_and_zero_mass():
+    V = np.array(CORNER_V + [[7, 7, 7]], dtype=float)
+    L = tetlap.laplacian(V, [[0, 1, 2, 3]], "dual")
+    assert L.shape == (5, 5) and L[[4], :].nnz == 1 and L[4, 4] == 0
+    assert tetlap.mass(V, [[0, 1, 2, 3]], "circumcentric").diagonal()[4] == 0
+
+
+@pytest.mark.parametrize("s", [1e-150, 1e-100, 1e100, 1e150])
+def test_tiny_and_huge_coordinates(s):
+    V, T = tetlap.meshes.cube(2, jitter=0.2, seed=2)
+    for kind in ("primal", "dual"):
+        A, B = tetlap.laplacian(V, T, kind), tetlap.laplacian(s * V, T, kind)
+        assert abs(B / s - A).max() <= 1e-13 * abs(A).max()
+    if 1e-100 <= s <= 1e100:  # s^3 is a normal float64
+        m, ms = (tetlap.mass(x, T, "circumcentric").diagonal() for x in (V, s * V))
+        np.testing.assert_allclose(ms / s**3, m, rtol=1e-13)
+    elif s > 1e100:  # the volume itself overflows float64: a clear error, never inf
+        with pytest.raises(tetlap.DegenerateElementError, match="not finite"):
+            tetlap.mass(s * V, T, "circumcentric")
+
+
+def test_translation_invariance_far_from_the_origin():
+    V, T = tetlap.meshes.cube(2, jitter=0.2, seed=2)
+    A = tetlap.laplacian(V, T, "dual")
+    B = tetlap.laplacian(V + 1e6, T, "dual")
+    assert abs(A - B).max() <= 1e-8 * abs(A).max()  # 1e6 offset costs ~6 digits

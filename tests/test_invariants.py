@@ -1,0 +1,208 @@
+"""Invariants of both Laplacians and the masses on generated meshes (paper Sec. 7)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial import Delaunay
+
+import tetlap
+from tetlap.diagnostics import boundary_faces, interior_vertices, signed_volumes
+
+KINDS = ["primal", "dual", 0.3]
+
+
+def jittered_cube():
+    return tetlap.meshes.cube(4, jitter=0.2, seed=3)
+
+
+def random_ball():
+    return tetlap.meshes.ball(600, seed=7)
+
+
+def non_delaunay():
+    """A jittered cube with some interior vertices pushed hard: many non-Delaunay tets."""
+    V, T = tetlap.meshes.cube(4, jitter=0.24, seed=11)
+    return V, T
+
+
+MESHES = {"cube": jittered_cube, "ball": random_ball, "non_delaunay": non_delaunay}
+
+
+@pytest.fixture(params=list(MESHES))
+def mesh(request):
+    return MESHES[request.param]()
+
+
+def scale_of(L):
+    return float(abs(L).max())
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_symmetric_zero_row_sums_and_linear_precision(mesh, kind):
+    V, T = mesh
+    L = tetlap.laplacian(V, T, kind)
+    s = scale_of(L)
+    assert abs(L - L.T).max() <= 1e-14 * s
+    assert np.abs(L.sum(axis=1)).max() <= 1e-13 * s
+    interior = interior_vertices(T, len(V))
+    assert interior.sum() > 10
+    residual = np.abs((L @ V)[interior]).max()
+    assert residual <= 1e-12 * s, residual
+    # and the boundary rows are *not* reproduced: the check above can fail
+    assert np.abs((L @ V)[~interior]).max() > 1e-3 * s
+
+
+def test_primal_is_negative_semidefinite_and_dual_is_not_always(mesh):
+    V, T = mesh
+    lam = np.linalg.eigvalsh(-tetlap.laplacian(V, T, "primal").toarray())
+    assert lam[0] >= -1e-12 * lam[-1]
+    assert abs(lam[0]) <= 1e-12 * lam[-1]  # constants are in the null space
+
+
+def test_dual_indefinite_on_a_non_delaunay_mesh():
+    """A flat bipyramid split into 3 tets around its short axis (the 2-tet split is the
+    Delaunay one): the dual is indefinite (Table 1), the primal stays NSD."""
+    h = 0.1
+    V = np.array([[1, 0, 0], [-0.5, 0.866, 0], [-0.5, -0.866, 0], [0, 0, h], [0, 0, -h]])
+    T = np.array([[3, 4, 0, 1], [3, 4, 1, 2], [3, 4, 2, 0]])
+    lam = np.linalg.eigvalsh(-tetlap.laplacian(V, T, "dual").toarray())
+    assert lam[0] < -1e-2 * lam[-1]
+    lam_p = np.linalg.eigvalsh(-tetlap.laplacian(V, T, "primal").toarray())
+    assert lam_p[0] >= -1e-12 * lam_p[-1]
+    # the Delaunay split of the same points keeps the dual semidefinite
+    lam_d = np.linalg.eigvalsh(-tetlap.laplacian(V, [[0, 1, 2, 3], [0, 1, 2, 4]], "dual").toarray())
+    assert lam_d[0] >= -1e-12 * lam_d[-1]
+
+
+def test_masses_sum_to_the_volume_and_pyramid_identity(mesh):
+    V, T = mesh
+    volume = np.abs(signed_volumes(V, T)).sum()
+    for kind in ("barycentric", "circumcentric", "fem"):
+        assert tetlap.mass(V, T, kind).sum() == pytest.approx(volume, rel=1e-12)
+    L = tetlap.laplacian(V, T, "dual").tocoo()
+    m = tetlap.mass(V, T, "circumcentric").diagonal()
+    off = L.row != L.col
+    sq = ((V[L.row[off]] - V[L.col[off]]) ** 2).sum(axis=1)
+    pyramid = np.bincount(L.row[off], weights=sq * L.data[off], minlength=len(V)) / 6
+    np.testing.assert_allclose(pyramid, m, rtol=1e-12, atol=1e-15 * np.abs(m).max())
+
+
+def test_fem_mass_rows_sum_to_the_barycentric_mass(mesh):
+    V, T = mesh
+    fem = tetlap.mass(V, T, "fem")
+    assert fem.nnz > len(V)  # consistent, not diagonal
+    np.testing.assert_allclose(fem.sum(axis=1), tetlap.mass(V, T, "barycentric").diagonal(),
+                               rtol=1e-13)
+
+
+def test_affine_family_is_the_affine_combination(mesh):
+    V, T = mesh
+    P, D = tetlap.laplacian(V, T, "primal"), tetlap.laplacian(V, T, "dual")
+    for t in (0.0, 0.25, 1.0):
+        A = tetlap.laplacian(V, T, t)
+        assert abs(A - ((1 - t) * P + t * D)).max() <= 1e-13 * scale_of(P)
+
+
+def test_vertex_order_and_orientation_do_not_matter(mesh, rng):
+    V, T = mesh
+    perm = np.array([rng.permutation(4) for _ in range(len(T))])
+    T2 = np.take_along_axis(T, perm, axis=1)
+    assert (signed_volumes(V, T2) < 0).any() and (signed_volumes(V, T2) > 0).any()
+    for kind in KINDS:
+        A, B = tetlap.laplacian(V, T, kind), tetlap.laplacian(V, T2, kind)
+        assert abs(A - B).max() <= 1e-14 * scale_of(A)
+    for kind in ("barycentric", "circumcentric"):
+        a, b = tetlap.mass(V, T, kind).diagonal(), tetlap.mass(V, T2, kind).diagonal()
+        np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-16)
+    # per-tet weights follow the permutation of the corners
+    W, W2 = tetlap.tet_contributions(V, T, "dual"), tetlap.tet_contributions(V, T2, "dual")
+    edges = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+    for t in range(0, len(T), 17):
+        by_edge = {frozenset((T[t, a], T[t, b])): W[t, e] for e, (a, b) in enumerate(edges)}
+        for e, (a, b) in enumerate(edges):
+            assert W2[t, e] == pytest.approx(by_edge[frozenset((T2[t, a], T2[t, b]))],
+                                             rel=1e-12, abs=1e-14)
+
+
+def test_immersed_in_r4_gives_the_same_operators(mesh, rng):
+    V, T = mesh
+    Q, _ = np.linalg.qr(rng.normal(size=(4, 4)))
+    V4 = np.column_stack([V, np.zeros(len(V))]) @ Q.T + rng.normal(size=4)
+    for kind in KINDS:
+        A, B = tetlap.laplacian(V, T, kind), tetlap.laplacian(V4, T, kind)
+        assert abs(A - B).max() <= 1e-11 * scale_of(A)
+    for kind in ("barycentric", "circumcentric"):
+        np.testing.assert_allclose(tetlap.mass(V4, T, kind).diagonal(),
+                                   tetlap.mass(V, T, kind).diagonal(), rtol=1e-10, atol=1e-15)
+
+
+def test_bitwise_identical_for_any_thread_count(mesh):
+    V, T = mesh
+
+    def arrays(threads):
+        L, M = tetlap.operators(V, T, "dual", "circumcentric", threads=threads)
+        F = tetlap.mass(V, T, "fem", threads=threads)
+        P = tetlap.laplacian(V, T, "primal", threads=threads)
+        e, w = tetlap.edge_weights(V, T, "dual", threads=threads)
+        return [L.data, L.indices, L.indptr, M.data, F.data, P.data, w,
+                tetlap.triplets(V, T, threads=threads).vals]
+
+    reference = arrays(1)
+    for threads in (2, 4, None):
+        for a, b in zip(reference, arrays(threads)):
+            assert a.tobytes() == b.tobytes()
+
+
+def test_all_routes_agree(mesh):
+    V, T = mesh
+    L = tetlap.laplacian(V, T, "dual")
+    L2, M2 = tetlap.operators(V, T, laplacian="dual", mass="circumcentric")
+    assert (L != L2).nnz == 0
+    assert (M2 != tetlap.mass(V, T, "circumcentric")).nnz == 0
+    r, c, v, shape = tetlap.triplets(V, T, "dual")
+    assert len(v) == 16 * len(T)
+    assert abs(sp.coo_array((v, (r, c)), shape=shape).tocsr() - L).max() <= 1e-14 * scale_of(L)
+    edges, w = tetlap.edge_weights(V, T, "dual")
+    np.testing.assert_array_equal(w, L[edges[:, 0], edges[:, 1]])
+    W = tetlap.tet_contributions(V, T, "dual")
+    local = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+    rows = np.concatenate([T[:, a] for a, b in local])
+    cols = np.concatenate([T[:, b] for a, b in local])
+    summed = sp.coo_array((W.T.ravel(), (rows, cols)), shape=L.shape).tocsr()
+    summed = summed + summed.T
+    assert abs(summed - (L - sp.diags_array(L.diagonal()))).max() <= 1e-14 * scale_of(L)
+
+
+def test_csr_layout_is_canonical(mesh):
+    V, T = mesh
+    L = tetlap.laplacian(V, T, "dual")
+    assert L.format == "csr" and L.dtype == np.float64
+    assert L.has_sorted_indices
+    copy = L.copy()
+    copy.sum_duplicates()
+    copy.sort_indices()
+    np.testing.assert_array_equal(copy.indices, L.indices)
+    np.testing.assert_array_equal(copy.indptr, L.indptr)
+    edges = tetlap.diagnostics.mesh_edges(T)
+    assert L.nnz == len(V) + 2 * len(edges)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(20, 150))
+def test_dual_weights_of_interior_delaunay_edges_are_non_negative(seed, n):
+    """Sec. 7.3: an interior Delaunay edge's dual face is a Voronoi face, area >= 0."""
+    rng = np.random.default_rng(seed)
+    V = rng.uniform(-1, 1, size=(n, 3))
+    T = Delaunay(V).simplices
+    vol = np.abs(signed_volumes(V, T))
+    T = T[vol > 1e-10]  # qhull may emit flat hull slivers
+    edges, w = tetlap.edge_weights(V, T, "dual")
+    bf = np.sort(boundary_faces(T), axis=1)
+    on_boundary = {(a, b) for f in bf for a, b in ((f[0], f[1]), (f[0], f[2]), (f[1], f[2]))}
+    interior = np.array([(i, j) not in on_boundary for i, j in edges])
+    assert interior.any()
+    assert w[interior].min() >= -1e-12 * np.abs(w).max()
