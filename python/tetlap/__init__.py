@@ -16,6 +16,7 @@ Sign convention (paper Eq. 1): ``L[i, j] = w_ij`` on edges, ``L[i, i] = -sum_j w
 """
 
 from . import diagnostics, meshes
+from .cached import Mesh, UpdateInfo
 from .properties import Report, check
 from .errors import (
     DegenerateElementError,
@@ -49,6 +50,8 @@ __all__ = [
     "edge_weights",
     "tet_contributions",
     "Triplets",
+    "Mesh",
+    "UpdateInfo",
     "check",
     "Report",
     "meshes",

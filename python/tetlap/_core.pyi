@@ -2,7 +2,7 @@
 # Inputs: points (n, d) C-contiguous float64, tets (m, 4) C-contiguous int64 (validated in
 # the core). kind: "primal" | "dual" | "affine" (then t in [0, 1]); mass kind:
 # "barycentric" | "circumcentric" | "fem"; degenerate: "raise" | "skip".
-# CSR triples are (data float64, indices int32|int64, indptr int32|int64).
+# CSR triples are (data float64, indices uint32 (< 2^31), indptr int32|int64).
 from typing import Literal
 
 import numpy as np
@@ -10,7 +10,7 @@ import numpy.typing as npt
 
 _F64 = npt.NDArray[np.float64]
 _Idx = npt.NDArray[np.int32] | npt.NDArray[np.int64]
-_CsrArrays = tuple[_F64, _Idx, _Idx]
+_CsrArrays = tuple[_F64, npt.NDArray[np.uint32], _Idx]
 _MassArrays = tuple[Literal["lumped"], _F64] | tuple[Literal["csr"], _CsrArrays]
 
 def laplacian(points: _F64, tets: npt.NDArray[np.int64], kind: str, t: float,
@@ -28,3 +28,13 @@ def triplets(points: _F64, tets: npt.NDArray[np.int64], kind: str, t: float,
 def edge_weights(points: _F64, tets: npt.NDArray[np.int64], kind: str, t: float,
                  threads: int | None, degenerate: str
                  ) -> tuple[npt.NDArray[np.int64], _F64]: ...
+
+class Mesh:
+    def __init__(self, points: _F64, tets: npt.NDArray[np.int64], threads: int | None,
+                 degenerate: str) -> None: ...
+    def pattern(self) -> tuple[npt.NDArray[np.uint32], _Idx]: ...
+    def laplacian(self, kind: str, t: float) -> _F64: ...
+    def mass(self, kind: str) -> _F64: ...
+    def update(self, points: _F64) -> tuple[int, int, int]: ...
+    def points(self) -> _F64: ...
+    def tets(self) -> npt.NDArray[np.int64]: ...

@@ -49,7 +49,9 @@ def _options(threads, degenerate):
 
 
 def _csr(arrays, n: int) -> sp.csr_array:
+    """A canonical csr_array from the core's ``(data, uint32 indices, indptr)``, no copy."""
     data, indices, indptr = arrays
+    indices = indices.view(np.int32) if indptr.dtype == np.int32 else indices.astype(np.int64)
     A = sp.csr_array((data, indices, indptr), shape=(n, n), copy=False)
     A.has_sorted_indices = True
     A.has_canonical_format = True

@@ -2,12 +2,11 @@
 //! onto edges, rows and vertices in a fixed order, so that the output is bitwise identical
 //! for any number of threads.
 
-use crate::csr::Csr;
 use crate::error::{Error, Result};
 use crate::geometry::{local_tet, LocalTet};
 use crate::local;
 use crate::mesh::TetMesh;
-use crate::topology::{Topology, DIAGONAL};
+use crate::topology::{groups_mut, Topology, OTHERS};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -53,17 +52,9 @@ pub struct Options {
     pub degenerate: Degenerate,
 }
 
-/// One tet's requested contributions: six edge weights and four corner masses (for
-/// [`MassKind::Fem`], `mass[0]` holds the tet's volume).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct TetValues {
-    pub weights: [f64; 6],
-    pub mass: [f64; 4],
-}
-
 /// Why one tet could not be evaluated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Fault {
+pub(crate) enum Fault {
     ZeroVolume,
     NonFinite,
 }
@@ -75,39 +66,6 @@ pub(crate) fn check_kind(kind: LaplacianKind) -> Result<()> {
             message: format!("the affine parameter t must lie in [0, 1], got {t}"),
         }),
         _ => Ok(()),
-    }
-}
-
-fn evaluate(
-    t: &LocalTet,
-    lap: Option<LaplacianKind>,
-    mass: Option<MassKind>,
-) -> std::result::Result<TetValues, Fault> {
-    if local::is_degenerate(t) {
-        return Err(Fault::ZeroVolume);
-    }
-    let needs_dual = matches!(lap, Some(LaplacianKind::Dual | LaplacianKind::Affine(_)))
-        || mass == Some(MassKind::Circumcentric);
-    let dual = needs_dual.then(|| local::dual(t));
-    let weights = match lap {
-        None => [0.0; 6],
-        Some(LaplacianKind::Primal) => local::primal_weights(t),
-        Some(LaplacianKind::Dual) => dual.unwrap().weights,
-        Some(LaplacianKind::Affine(s)) => {
-            let (p, d) = (local::primal_weights(t), dual.unwrap().weights);
-            std::array::from_fn(|e| (1.0 - s) * p[e] + s * d[e])
-        }
-    };
-    let mass = match mass {
-        None => [0.0; 4],
-        Some(MassKind::Barycentric) => local::barycentric_mass(t),
-        Some(MassKind::Circumcentric) => dual.unwrap().cell_volumes,
-        Some(MassKind::Fem) => [local::volume(t), 0.0, 0.0, 0.0],
-    };
-    if weights.iter().chain(&mass).all(|v| v.is_finite()) {
-        Ok(TetValues { weights, mass })
-    } else {
-        Err(Fault::NonFinite)
     }
 }
 
@@ -124,107 +82,203 @@ pub(crate) fn run<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send)
     }
 }
 
-/// The parallel per-tet pass: every tet's values in its own slot.
-pub(crate) fn tet_values(
-    mesh: &TetMesh,
-    lap: Option<LaplacianKind>,
-    mass: Option<MassKind>,
-    degenerate: Degenerate,
-) -> Result<Vec<TetValues>> {
-    if let Some(kind) = lap {
-        check_kind(kind)?;
+fn finite<const K: usize>(v: [f64; K]) -> std::result::Result<[f64; K], Fault> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(v)
+    } else {
+        Err(Fault::NonFinite)
     }
-    let d = mesh.dim();
-    let scratch_len = if d > 3 { 3 * d } else { 0 };
-    let corners = |t: usize| mesh.tets()[t].map(|v| mesh.point(v));
+}
+
+/// The six weights of one tet for `kind`.
+pub(crate) fn weights(t: &LocalTet, kind: LaplacianKind) -> std::result::Result<[f64; 6], Fault> {
+    if local::is_degenerate(t) {
+        return Err(Fault::ZeroVolume);
+    }
+    finite(match kind {
+        LaplacianKind::Primal => local::primal_weights(t),
+        LaplacianKind::Dual => local::dual(t).weights,
+        LaplacianKind::Affine(s) => {
+            let (p, d) = (local::primal_weights(t), local::dual(t).weights);
+            std::array::from_fn(|e| (1.0 - s) * p[e] + s * d[e])
+        }
+    })
+}
+
+/// The four corner masses of one tet for a lumped `kind`; for [`MassKind::Fem`] the tet's
+/// volume in every slot.
+pub(crate) fn corner_mass(t: &LocalTet, kind: MassKind) -> std::result::Result<[f64; 4], Fault> {
+    if local::is_degenerate(t) {
+        return Err(Fault::ZeroVolume);
+    }
+    finite(match kind {
+        MassKind::Barycentric => local::barycentric_mass(t),
+        MassKind::Circumcentric => local::dual(t).cell_volumes,
+        MassKind::Fem => [local::volume(t); 4],
+    })
+}
+
+/// Weights and corner masses of one tet, sharing the dual construction when both need it.
+pub(crate) fn weights_and_mass(
+    t: &LocalTet,
+    lap: LaplacianKind,
+    mass: MassKind,
+) -> std::result::Result<([f64; 6], [f64; 4]), Fault> {
+    if lap == LaplacianKind::Dual && mass == MassKind::Circumcentric && !local::is_degenerate(t) {
+        let d = local::dual(t);
+        return Ok((finite(d.weights)?, finite(d.cell_volumes)?));
+    }
+    Ok((weights(t, lap)?, corner_mass(t, mass)?))
+}
+
+/// The parallel per-tet pass: `f` of every tet into its own slot of `out`.
+///
+/// A tet for which `f` fails gets `T::default()` under [`Degenerate::Skip`]; under
+/// [`Degenerate::Raise`] the first such tet (lowest index, whatever the scheduling) is
+/// reported.
+pub(crate) fn per_tet<T: Copy + Default + Send + Sync>(
+    mesh: &TetMesh,
+    degenerate: Degenerate,
+    out: &mut [T],
+    f: impl Fn(&LocalTet) -> std::result::Result<T, Fault> + Sync,
+) -> Result<()> {
+    let scratch_len = scratch_len(mesh);
     let first_fault = AtomicUsize::new(usize::MAX);
-    let mut out = vec![TetValues::default(); mesh.n_tets()];
     out.par_iter_mut().enumerate().for_each_init(
         || vec![0.0; scratch_len],
-        |scratch, (t, slot)| match evaluate(&local_tet(corners(t), scratch), lap, mass) {
+        |scratch, (t, slot)| match f(&tet_frame(mesh, t, scratch)) {
             Ok(v) => *slot = v,
             Err(_) => {
+                *slot = T::default();
                 first_fault.fetch_min(t, Ordering::Relaxed);
             }
         },
     );
-    let t = first_fault.into_inner();
+    fault_to_error(mesh, degenerate, first_fault.into_inner(), &f)
+}
+
+/// [`per_tet`] for the listed tets only: their values, in the order of `tets`.
+pub(crate) fn per_tet_subset<T: Copy + Default + Send + Sync>(
+    mesh: &TetMesh,
+    degenerate: Degenerate,
+    tets: &[u32],
+    f: impl Fn(&LocalTet) -> std::result::Result<T, Fault> + Sync,
+) -> Result<Vec<T>> {
+    let scratch_len = scratch_len(mesh);
+    let results: Vec<_> = tets
+        .par_iter()
+        .map_init(|| vec![0.0; scratch_len], |scratch, &t| f(&tet_frame(mesh, t as usize, scratch)))
+        .collect();
+    let first = tets.iter().zip(&results).filter(|(_, r)| r.is_err()).map(|(&t, _)| t as usize).min();
+    fault_to_error(mesh, degenerate, first.unwrap_or(usize::MAX), &f)?;
+    Ok(results.into_iter().map(|r| r.unwrap_or_default()).collect())
+}
+
+fn scratch_len(mesh: &TetMesh) -> usize {
+    if mesh.dim() > 3 { 3 * mesh.dim() } else { 0 }
+}
+
+fn tet_frame(mesh: &TetMesh, t: usize, scratch: &mut [f64]) -> LocalTet {
+    local_tet(mesh.tets()[t].map(|v| mesh.point(v)), scratch)
+}
+
+/// The error for the first failing tet `t` (`usize::MAX`: none) under the policy.
+fn fault_to_error<T>(
+    mesh: &TetMesh,
+    degenerate: Degenerate,
+    t: usize,
+    f: impl Fn(&LocalTet) -> std::result::Result<T, Fault>,
+) -> Result<()> {
     if t == usize::MAX || degenerate == Degenerate::Skip {
-        return Ok(out);
+        return Ok(());
     }
-    let mut scratch = vec![0.0; scratch_len];
-    Err(match evaluate(&local_tet(corners(t), &mut scratch), lap, mass) {
+    Err(match f(&tet_frame(mesh, t, &mut vec![0.0; scratch_len(mesh)])) {
         Err(Fault::ZeroVolume) => Error::Degenerate { element: t },
         _ => Error::NonFiniteResult { element: t },
     })
 }
 
-/// Sum over every edge of its tet-edge values, in ascending tet order.
-pub(crate) fn edge_sums(topo: &Topology, value: impl Fn(usize) -> f64 + Sync) -> Vec<f64> {
-    (0..topo.edges.len())
-        .into_par_iter()
-        .map(|e| topo.edge_incidence.of(e).iter().map(|&k| value(k as usize)).sum())
-        .collect()
-}
+/// Local edge index of corners `(a, b)`, `a != b`.
+const EDGE_OF: [[usize; 4]; 4] = [[6, 0, 1, 2], [0, 6, 3, 4], [1, 3, 6, 5], [2, 4, 5, 6]];
 
-/// Sum over every vertex of its tet-corner values, in ascending tet order.
-pub(crate) fn vertex_sums(topo: &Topology, value: impl Fn(usize) -> f64 + Sync) -> Vec<f64> {
-    (0..topo.n)
-        .into_par_iter()
-        .map(|i| topo.vertex_incidence.of(i).iter().map(|&k| value(k as usize)).sum())
-        .collect()
-}
 
-/// Splits `data` into the rows of `indptr`, for parallel per-row writes.
-fn rows_mut<'a>(mut data: &'a mut [f64], indptr: &[usize]) -> Vec<&'a mut [f64]> {
-    let mut rows = Vec::with_capacity(indptr.len().saturating_sub(1));
-    for w in indptr.windows(2) {
-        let (row, rest) = data.split_at_mut(w[1] - w[0]);
-        rows.push(row);
-        data = rest;
-    }
-    rows
-}
-
-/// CSR matrix on the topology's pattern: off-diagonal slots get `edge_value[e]`, the
-/// diagonal gets `diagonal(i, off_diagonal_row_sum)` (sums in column order).
-pub(crate) fn on_pattern(
+/// Writes rows `rows` (all rows when `None`) of an operator on the topology's pattern into
+/// `data`: entry `(i, j)` is the sum, over the tets around `i` in ascending order, of
+/// `edge(t, e)` for their local edge `e = (i, j)`; the diagonal is `diagonal(i, s)` with `s`
+/// the row's off-diagonal sum in column order.
+pub(crate) fn gather_rows(
     topo: &Topology,
-    edge_value: &[f64],
+    data: &mut [f64],
+    rows: Option<&[u32]>,
+    edge: impl Fn(usize, usize) -> f64 + Sync,
     diagonal: impl Fn(usize, f64) -> f64 + Sync,
-) -> Csr {
-    let mut data = vec![0.0; topo.indices.len()];
-    rows_mut(&mut data, &topo.indptr).into_par_iter().enumerate().for_each(|(i, row)| {
-        let slots = &topo.slot_edge[topo.indptr[i]..topo.indptr[i + 1]];
-        let mut sum = 0.0;
-        let mut diag = 0;
-        for (k, (&e, out)) in slots.iter().zip(row.iter_mut()).enumerate() {
-            if e == DIAGONAL {
-                diag = k;
-            } else {
-                *out = edge_value[e as usize];
-                sum += *out;
+) {
+    let fill = |i: usize, row: &mut [f64]| {
+        row.fill(0.0);
+        let first = topo.corners.offsets[i];
+        for (k, &corner) in topo.corners.of(i).iter().enumerate() {
+            let (t, c) = (corner as usize / 4, corner as usize % 4);
+            for (&o, &slot) in OTHERS[c].iter().zip(&topo.corner_slots[first + k]) {
+                row[slot as usize] += edge(t, EDGE_OF[c][o]);
             }
         }
+        let diag = topo.diagonal[i] as usize;
+        let sum: f64 = row.iter().sum();
         row[diag] = diagonal(i, sum);
-    });
-    Csr { n: topo.n, indptr: topo.indptr.clone(), indices: topo.indices.clone(), data }
+    };
+    match rows {
+        None => groups_mut(data, &topo.indptr)
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(i, row)| fill(i, row)),
+        Some(rows) => {
+            for &i in rows {
+                let i = i as usize;
+                fill(i, &mut data[topo.indptr[i]..topo.indptr[i + 1]]);
+            }
+        }
+    }
 }
 
-/// The Laplacian from per-tet weights: `L[i,j] = w_ij`, `L[i,i] = -sum_j w_ij`.
-pub(crate) fn laplacian_from(topo: &Topology, values: &[TetValues]) -> Csr {
-    let w = edge_sums(topo, |k| values[k / 6].weights[k % 6]);
-    on_pattern(topo, &w, |_, sum| -sum)
+/// Sum over the tets around every vertex (ascending) of `corner(t, c)`.
+pub(crate) fn gather_vertices(topo: &Topology, corner: impl Fn(usize, usize) -> f64 + Sync) -> Vec<f64> {
+    (0..topo.n)
+        .into_par_iter()
+        .map(|i| topo.corners.of(i).iter().map(|&k| corner(k as usize / 4, k as usize % 4)).sum())
+        .collect()
 }
 
-/// Lumped mass per vertex from per-tet corner masses.
-pub(crate) fn lumped_from(topo: &Topology, values: &[TetValues]) -> Vec<f64> {
-    vertex_sums(topo, |k| values[k / 4].mass[k % 4])
+/// Laplacian values on the pattern, for all rows (`rows = None`) or the listed ones.
+pub(crate) fn laplacian_values(topo: &Topology, w: &[[f64; 6]], rows: Option<&[u32]>, mut data: Vec<f64>) -> Vec<f64> {
+    data.resize(topo.nnz(), 0.0);
+    gather_rows(topo, &mut data, rows, |t, e| w[t][e], |_, sum| -sum);
+    data
 }
 
-/// Consistent P1 mass from per-tet volumes (`values[t].mass[0]`).
-pub(crate) fn fem_from(topo: &Topology, values: &[TetValues]) -> Csr {
-    let off = edge_sums(topo, |k| values[k / 6].mass[0] / 20.0);
-    let diag = vertex_sums(topo, |k| values[k / 4].mass[0] / 10.0);
-    on_pattern(topo, &off, |i, _| diag[i])
+/// Mass values (per vertex, or CSR data for FEM) for all rows or the listed ones.
+pub(crate) fn mass_values(
+    topo: &Topology,
+    kind: MassKind,
+    m: &[[f64; 4]],
+    rows: Option<&[u32]>,
+    mut values: Vec<f64>,
+) -> Vec<f64> {
+    let vertex = |i: usize, f: &dyn Fn(usize, usize) -> f64| -> f64 {
+        topo.corners.of(i).iter().map(|&k| f(k as usize / 4, k as usize % 4)).sum()
+    };
+    match (kind, rows) {
+        (MassKind::Fem, _) => {
+            values.resize(topo.nnz(), 0.0);
+            let diagonal = |i: usize, _| vertex(i, &|t, _| m[t][0] / 10.0);
+            gather_rows(topo, &mut values, rows, |t, _| m[t][0] / 20.0, diagonal);
+            values
+        }
+        (_, None) => gather_vertices(topo, |t, c| m[t][c]),
+        (_, Some(rows)) => {
+            for &i in rows {
+                values[i as usize] = vertex(i as usize, &|t, c| m[t][c]);
+            }
+            values
+        }
+    }
 }

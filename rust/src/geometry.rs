@@ -36,6 +36,17 @@ fn scale_exponent(x: f64) -> i32 {
 /// All four points coinciding gives zero edges (a degenerate tet).
 pub fn local_tet(x: [&[f64]; 4], scratch: &mut [f64]) -> LocalTet {
     let d = x[0].len();
+    if d == 3 {
+        // The common case, without prescaling: differences in the normal range.
+        let p = |k: usize| DVec3::new(x[k][0], x[k][1], x[k][2]);
+        let e = [p(1) - p(0), p(2) - p(0), p(3) - p(0)];
+        let max_abs = e[0].abs().max(e[1].abs()).max(e[2].abs()).max_element();
+        if (pow2(-1000)..pow2(1000)).contains(&max_abs) {
+            let k = scale_exponent(max_abs);
+            let inv = pow2(-k);
+            return LocalTet { edges: e.map(|v| v * inv), scale: pow2(k) };
+        }
+    }
     let max_diff = |pre: f64| {
         let mut m = 0.0f64;
         for xk in &x[1..] {

@@ -38,6 +38,7 @@
 #![warn(missing_docs)]
 
 mod assemble;
+mod cached;
 mod csr;
 mod error;
 mod geometry;
@@ -47,9 +48,10 @@ mod operators;
 mod topology;
 
 pub use assemble::{Degenerate, LaplacianKind, MassKind, Options};
+pub use cached::{Mesh, Update};
 pub use csr::{Coo, Csr};
 pub use error::{Error, Result};
 pub use geometry::{local_tet, LocalTet};
 pub use mesh::{elements_from_i64, TetMesh, MAX_VERTICES};
 pub use operators::{edge_weights, laplacian, mass, operators, tet_contributions, triplets, Mass};
-pub use topology::{Incidence, Topology, DIAGONAL};
+pub use topology::{Incidence, Topology};

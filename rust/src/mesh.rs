@@ -37,6 +37,11 @@ impl<'a> TetMesh<'a> {
         Ok(TetMesh { points, dim, tets })
     }
 
+    /// A view of input that was checked before (same indices, new finite coordinates).
+    pub(crate) fn trusted(points: &'a [f64], dim: usize, tets: &'a [[u32; 4]]) -> Self {
+        TetMesh { points, dim, tets }
+    }
+
     /// Number of vertices `n`.
     pub fn n_vertices(&self) -> usize {
         self.points.len() / self.dim

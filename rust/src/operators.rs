@@ -1,7 +1,8 @@
 //! The public one-shot API: validated mesh in, CSR / triplets / per-tet values out.
 
 use crate::assemble::{
-    fem_from, laplacian_from, lumped_from, run, tet_values, LaplacianKind, MassKind, Options,
+    check_kind, corner_mass, laplacian_values, mass_values, per_tet, run, weights,
+    weights_and_mass, LaplacianKind, MassKind, Options,
 };
 use crate::csr::{Coo, Csr};
 use crate::error::Result;
@@ -29,6 +30,24 @@ impl Mass {
     }
 }
 
+/// The mass of `kind` from per-tet corner masses (volumes for [`MassKind::Fem`]).
+pub(crate) fn mass_from(topo: &Topology, kind: MassKind, m: &[[f64; 4]]) -> Mass {
+    let values = mass_values(topo, kind, m, None, vec![]);
+    match kind {
+        MassKind::Fem => Mass::Consistent(topo.to_csr(values)),
+        _ => Mass::Lumped(values),
+    }
+}
+
+/// Per-tet pass and topology, side by side.
+fn with_topology<T: Send>(
+    mesh: &TetMesh,
+    pass: impl FnOnce() -> Result<T> + Send,
+) -> Result<(T, Topology)> {
+    let (values, topo) = rayon::join(pass, || Topology::new(mesh.tets(), mesh.n_vertices()));
+    Ok((values?, topo?))
+}
+
 /// The `n x n` Laplacian: `L[i,j] = w_ij` on edges, `L[i,i] = -sum_j w_ij`; rows sum to
 /// zero, the primal is negative semidefinite. Sorted CSR with every mesh edge stored.
 ///
@@ -41,10 +60,14 @@ impl Mass {
 /// assert_eq!(l.get(0, 1), 0.25);
 /// ```
 pub fn laplacian(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<Csr> {
+    check_kind(kind)?;
     run(opts.threads, || {
-        let values = tet_values(mesh, Some(kind), None, opts.degenerate)?;
-        let topo = Topology::new(mesh.tets(), mesh.n_vertices())?;
-        Ok(laplacian_from(&topo, &values))
+        let (w, topo) = with_topology(mesh, || {
+            let mut w = vec![[0.0; 6]; mesh.n_tets()];
+            per_tet(mesh, opts.degenerate, &mut w, |t| weights(t, kind)).map(|_| w)
+        })?;
+        let data = laplacian_values(&topo, &w, None, vec![]);
+        Ok(topo.into_csr(data))
     })?
 }
 
@@ -60,38 +83,41 @@ pub fn laplacian(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<
 /// ```
 pub fn mass(mesh: &TetMesh, kind: MassKind, opts: &Options) -> Result<Mass> {
     run(opts.threads, || {
-        let values = tet_values(mesh, None, Some(kind), opts.degenerate)?;
-        let topo = Topology::new(mesh.tets(), mesh.n_vertices())?;
-        Ok(mass_from(&topo, &values, kind))
+        let (m, topo) = with_topology(mesh, || {
+            let mut m = vec![[0.0; 4]; mesh.n_tets()];
+            per_tet(mesh, opts.degenerate, &mut m, |t| corner_mass(t, kind)).map(|_| m)
+        })?;
+        Ok(mass_from(&topo, kind, &m))
     })?
 }
 
-/// Laplacian and mass matrix in one per-tet pass and one topology.
+/// Laplacian and mass matrix from one per-tet pass and one topology.
 pub fn operators(
     mesh: &TetMesh,
     lap: LaplacianKind,
     mass: MassKind,
     opts: &Options,
 ) -> Result<(Csr, Mass)> {
+    check_kind(lap)?;
     run(opts.threads, || {
-        let values = tet_values(mesh, Some(lap), Some(mass), opts.degenerate)?;
-        let topo = Topology::new(mesh.tets(), mesh.n_vertices())?;
-        Ok((laplacian_from(&topo, &values), mass_from(&topo, &values, mass)))
+        let (wm, topo) = with_topology(mesh, || {
+            let mut wm = vec![([0.0; 6], [0.0; 4]); mesh.n_tets()];
+            per_tet(mesh, opts.degenerate, &mut wm, |t| weights_and_mass(t, lap, mass))
+                .map(|_| wm)
+        })?;
+        let (w, m): (Vec<[f64; 6]>, Vec<[f64; 4]>) = wm.into_par_iter().unzip();
+        let mass = mass_from(&topo, mass, &m);
+        let data = laplacian_values(&topo, &w, None, vec![]);
+        Ok((topo.into_csr(data), mass))
     })?
-}
-
-fn mass_from(topo: &Topology, values: &[crate::assemble::TetValues], kind: MassKind) -> Mass {
-    match kind {
-        MassKind::Fem => Mass::Consistent(fem_from(topo, values)),
-        _ => Mass::Lumped(lumped_from(topo, values)),
-    }
 }
 
 /// Per-tet edge weights, `(m, 6)` in the local edge order [`crate::local::EDGES`].
 pub fn tet_contributions(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<Vec<[f64; 6]>> {
+    check_kind(kind)?;
     run(opts.threads, || {
-        let values = tet_values(mesh, Some(kind), None, opts.degenerate)?;
-        Ok(values.into_par_iter().map(|v| v.weights).collect())
+        let mut w = vec![[0.0; 6]; mesh.n_tets()];
+        per_tet(mesh, opts.degenerate, &mut w, |t| weights(t, kind)).map(|_| w)
     })?
 }
 
@@ -126,12 +152,19 @@ pub fn triplets(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<C
     Ok(Coo { n: mesh.n_vertices(), rows, cols, vals })
 }
 
-/// Unique edges `(i, j)`, `i < j`, sorted, with their summed weights `w_ij`.
+/// Unique edges `(i, j)`, `i < j`, sorted, with their summed weights `w_ij` (the upper
+/// triangle of [`laplacian`]).
 pub fn edge_weights(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<(Vec<[u32; 2]>, Vec<f64>)> {
-    run(opts.threads, || {
-        let values = tet_values(mesh, Some(kind), None, opts.degenerate)?;
-        let topo = Topology::new(mesh.tets(), mesh.n_vertices())?;
-        let w = crate::assemble::edge_sums(&topo, |k| values[k / 6].weights[k % 6]);
-        Ok((topo.edges, w))
-    })?
+    let l = laplacian(mesh, kind, opts)?;
+    let mut edges = Vec::with_capacity((l.nnz() - l.n) / 2);
+    let mut w = Vec::with_capacity(edges.capacity());
+    for i in 0..l.n {
+        for k in l.indptr[i]..l.indptr[i + 1] {
+            if l.indices[k] as usize > i {
+                edges.push([i as u32, l.indices[k]]);
+                w.push(l.data[k]);
+            }
+        }
+    }
+    Ok((edges, w))
 }

@@ -30,6 +30,11 @@ impl Input {
         Ok(Input { points, dim, tets })
     }
 
+    /// The owned points, dimension and tets.
+    pub fn into_parts(self) -> (Vec<f64>, usize, Vec<[u32; 4]>) {
+        (self.points, self.dim, self.tets)
+    }
+
     /// The validated mesh view (finiteness, dimensions, repeated vertices).
     pub fn mesh(&self) -> tetlap::Result<TetMesh<'_>> {
         TetMesh::new(&self.points, self.dim, &self.tets)
@@ -84,18 +89,27 @@ impl Spec {
     }
 }
 
-/// `(data, indices, indptr)` with int32 indices when they fit, int64 otherwise.
-pub fn csr_arrays<'py>(py: Python<'py>, m: Csr) -> PyResult<Bound<'py, PyTuple>> {
-    let data = PyArray1::from_vec(py, m.data).into_any();
-    if m.indices.len() < i32::MAX as usize {
-        let indices: Vec<i32> = m.indices.into_iter().map(|j| j as i32).collect();
-        let indptr: Vec<i32> = m.indptr.into_iter().map(|p| p as i32).collect();
-        PyTuple::new(py, [data, PyArray1::from_vec(py, indices).into_any(), PyArray1::from_vec(py, indptr).into_any()])
+/// Row starts as int32 when every offset fits, int64 otherwise.
+pub fn indptr_array<'py>(py: Python<'py>, indptr: &[usize]) -> Bound<'py, PyAny> {
+    if indptr.last().is_none_or(|&nnz| nnz <= i32::MAX as usize) {
+        PyArray1::from_iter(py, indptr.iter().map(|&p| p as i32)).into_any()
     } else {
-        let indices: Vec<i64> = m.indices.into_iter().map(i64::from).collect();
-        let indptr: Vec<i64> = m.indptr.into_iter().map(|p| p as i64).collect();
-        PyTuple::new(py, [data, PyArray1::from_vec(py, indices).into_any(), PyArray1::from_vec(py, indptr).into_any()])
+        PyArray1::from_iter(py, indptr.iter().map(|&p| p as i64)).into_any()
     }
+}
+
+/// `(data float64, indices uint32, indptr int32|int64)`, data and indices moved without a
+/// copy (the Python side views the uint32 indices, all `< 2^31`, as int32).
+pub fn csr_arrays<'py>(py: Python<'py>, m: Csr) -> PyResult<Bound<'py, PyTuple>> {
+    let indptr = indptr_array(py, &m.indptr);
+    PyTuple::new(
+        py,
+        [
+            PyArray1::from_vec(py, m.data).into_any(),
+            PyArray1::from_vec(py, m.indices).into_any(),
+            indptr,
+        ],
+    )
 }
 
 /// A `(rows, K)` array from fixed-size rows, moved without copying the values twice.

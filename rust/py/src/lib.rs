@@ -7,6 +7,7 @@
 
 mod convert;
 mod errors;
+mod mesh;
 
 use pyo3::prelude::*;
 
@@ -18,6 +19,9 @@ mod _core {
     use pyo3::prelude::*;
     use pyo3::types::PyTuple;
     use tetlap::Mass;
+
+    #[pymodule_export]
+    use crate::mesh::PyMesh;
 
     type Points<'py> = PyReadonlyArray2<'py, f64>;
     type Tets<'py> = PyReadonlyArray2<'py, i64>;

@@ -7,7 +7,7 @@ use crate::geometry::LocalTet;
 /// with opposite edge `kl` and dihedral angle `theta_kl` there.
 ///
 /// Computed as minus the P1 stiffness `Vol * grad(lambda_a) . grad(lambda_b)`
-/// `= -(n_a . n_b) / (6 |det|)`, with `n_a` the face normals of [`Frame`]. Independent of
+/// `= -(n_a . n_b) / (6 |det|)`, with `n_a` the (unnormalised) face normals. Independent of
 /// the tet's orientation. Infinite or NaN for a degenerate tet (the caller checks).
 ///
 /// ```

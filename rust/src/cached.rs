@@ -1,0 +1,250 @@
+//! A mesh that keeps its topology: re-assembly without the symbolic step, and updates that
+//! recompute only what moved (strong locality, paper Sec. 7.1).
+
+use crate::assemble::{
+    check_kind, corner_mass, laplacian_values, mass_values, per_tet, per_tet_subset, run,
+    weights, Fault, LaplacianKind, MassKind, Options,
+};
+use crate::csr::Csr;
+use crate::error::{Error, Result};
+use crate::geometry::LocalTet;
+use crate::mesh::{check_points, TetMesh};
+use crate::operators::Mass;
+use crate::topology::Topology;
+
+/// One cached operator: its per-tet values and its assembled values.
+#[derive(Debug, Clone)]
+struct Cached<K, T> {
+    kind: K,
+    per_tet: Vec<T>,
+    /// CSR data on the topology's pattern, or one value per vertex for lumped masses.
+    values: Vec<f64>,
+}
+
+/// What an update recomputed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Update {
+    /// Vertices whose coordinates changed.
+    pub moved_vertices: usize,
+    /// Tets around them (recomputed once per cached operator).
+    pub recomputed_tets: usize,
+    /// Rows (vertices) whose values were re-summed.
+    pub recomputed_rows: usize,
+}
+
+/// A tet mesh with its topology computed once, and the operators asked for so far.
+///
+/// [`Mesh::update`] moves vertices and refreshes every cached operator by recomputing only
+/// the tets around moved vertices and re-summing only the rows of their corners. Rows are
+/// always summed over their tets in ascending order, so the result is **bitwise equal** to
+/// a fresh assembly of the new geometry.
+///
+/// ```
+/// use tetlap::{LaplacianKind, Mesh, Options};
+/// let points = vec![0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.];
+/// let mut mesh = Mesh::new(points.clone(), 3, vec![[0, 1, 2, 3], [4, 2, 1, 3]], Options::default())?;
+/// let before = mesh.laplacian(LaplacianKind::Dual)?;
+/// let mut moved = points.clone();
+/// moved[14] = 1.5; // vertex 4 moves: only tet 1 is recomputed
+/// let update = mesh.update(&moved)?;
+/// assert_eq!((update.moved_vertices, update.recomputed_tets), (1, 1));
+/// let fresh = tetlap::laplacian(&tetlap::TetMesh::new(&moved, 3, mesh.tets())?,
+///                               LaplacianKind::Dual, &Options::default())?;
+/// assert_eq!(mesh.laplacian(LaplacianKind::Dual)?, fresh);
+/// assert_ne!(before, fresh);
+/// # Ok::<(), tetlap::Error>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct Mesh {
+    points: Vec<f64>,
+    dim: usize,
+    tets: Vec<[u32; 4]>,
+    opts: Options,
+    topology: Topology,
+    laplacians: Vec<Cached<LaplacianKind, [f64; 6]>>,
+    masses: Vec<Cached<MassKind, [f64; 4]>>,
+}
+
+impl Mesh {
+    /// Validates the mesh (as [`TetMesh::new`]) and computes its topology.
+    pub fn new(points: Vec<f64>, dim: usize, tets: Vec<[u32; 4]>, opts: Options) -> Result<Self> {
+        TetMesh::new(&points, dim, &tets)?;
+        let topology = run(opts.threads, || Topology::new(&tets, points.len() / dim))??;
+        Ok(Mesh { points, dim, tets, opts, topology, laplacians: vec![], masses: vec![] })
+    }
+
+    /// The current coordinates, row-major `(n, dim)`.
+    pub fn points(&self) -> &[f64] {
+        &self.points
+    }
+
+    /// The tets.
+    pub fn tets(&self) -> &[[u32; 4]] {
+        &self.tets
+    }
+
+    /// Ambient dimension.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// The cached topology (CSR pattern and slot map).
+    pub fn topology(&self) -> &Topology {
+        &self.topology
+    }
+
+    fn view(&self) -> TetMesh<'_> {
+        TetMesh::trusted(&self.points, self.dim, &self.tets)
+    }
+
+    /// CSR data of the Laplacian of `kind` on [`Mesh::topology`]'s pattern (computed on
+    /// first use, then kept up to date by [`Mesh::update`]).
+    pub fn laplacian_values(&mut self, kind: LaplacianKind) -> Result<&[f64]> {
+        check_kind(kind)?;
+        let index = match self.laplacians.iter().position(|c| c.kind == kind) {
+            Some(index) => index,
+            None => {
+                let (mesh, topo, opts) = (self.view(), &self.topology, self.opts);
+                let cached = run(opts.threads, || -> Result<_> {
+                    let mut w = vec![[0.0; 6]; mesh.n_tets()];
+                    per_tet(&mesh, opts.degenerate, &mut w, |t| weights(t, kind))?;
+                    let values = laplacian_values(topo, &w, None, vec![0.0; topo.nnz()]);
+                    Ok(Cached { kind, per_tet: w, values })
+                })??;
+                self.laplacians.push(cached);
+                self.laplacians.len() - 1
+            }
+        };
+        Ok(&self.laplacians[index].values)
+    }
+
+    /// The Laplacian of `kind` as a CSR matrix (a copy of the cached values).
+    pub fn laplacian(&mut self, kind: LaplacianKind) -> Result<Csr> {
+        let values = self.laplacian_values(kind)?.to_vec();
+        Ok(self.topology.to_csr(values))
+    }
+
+    /// Values of the mass of `kind`: one per vertex for lumped kinds, CSR data on the
+    /// pattern for [`MassKind::Fem`].
+    pub fn mass_values(&mut self, kind: MassKind) -> Result<&[f64]> {
+        let index = match self.masses.iter().position(|c| c.kind == kind) {
+            Some(index) => index,
+            None => {
+                let (mesh, topo, opts) = (self.view(), &self.topology, self.opts);
+                let cached = run(opts.threads, || -> Result<_> {
+                    let mut m = vec![[0.0; 4]; mesh.n_tets()];
+                    per_tet(&mesh, opts.degenerate, &mut m, |t| corner_mass(t, kind))?;
+                    let values = mass_values(topo, kind, &m, None, vec![]);
+                    Ok(Cached { kind, per_tet: m, values })
+                })??;
+                self.masses.push(cached);
+                self.masses.len() - 1
+            }
+        };
+        Ok(&self.masses[index].values)
+    }
+
+    /// The mass of `kind` (a copy of the cached values).
+    pub fn mass(&mut self, kind: MassKind) -> Result<Mass> {
+        let values = self.mass_values(kind)?.to_vec();
+        Ok(match kind {
+            MassKind::Fem => Mass::Consistent(self.topology.to_csr(values)),
+            _ => Mass::Lumped(values),
+        })
+    }
+
+    /// Moves the vertices to `points` (same shape, finite) and refreshes every cached
+    /// operator. On error (a tet became degenerate under [`crate::Degenerate::Raise`],
+    /// non-finite or misshaped input) nothing changes.
+    pub fn update(&mut self, points: &[f64]) -> Result<Update> {
+        if points.len() != self.points.len() {
+            return Err(Error::Shape {
+                message: format!(
+                    "the new points have {} coordinates, the mesh has {} ({} x {})",
+                    points.len(),
+                    self.points.len(),
+                    self.points.len() / self.dim,
+                    self.dim
+                ),
+            });
+        }
+        check_points(points, self.dim, 3)?;
+        let moved: Vec<u32> = (0..self.points.len() / self.dim)
+            .filter(|&i| {
+                let r = i * self.dim..(i + 1) * self.dim;
+                self.points[r.clone()] != points[r]
+            })
+            .map(|i| i as u32)
+            .collect();
+        let topo = &self.topology;
+        let mut tets: Vec<u32> =
+            moved.iter().flat_map(|&v| topo.corners.of(v as usize).iter().map(|&k| k / 4)).collect();
+        tets.sort_unstable();
+        tets.dedup();
+        let mut rows: Vec<u32> = tets.iter().flat_map(|&t| self.tets[t as usize]).collect();
+        rows.sort_unstable();
+        rows.dedup();
+        // Beyond an eighth of the mesh the full parallel pass is faster than a patch.
+        let full = tets.len() > self.tets.len() / 8;
+        let new = TetMesh::trusted(points, self.dim, &self.tets);
+        let opts = self.opts;
+        let (laplacians, masses) = run(opts.threads, || -> Result<_> {
+            let l = recompute(&new, opts, &tets, full, &self.laplacians, |t, k| weights(t, k))?;
+            let m = recompute(&new, opts, &tets, full, &self.masses, |t, k| corner_mass(t, k))?;
+            Ok((l, m))
+        })??;
+        // Nothing failed: commit.
+        self.points.copy_from_slice(points);
+        let (topo, all) = (&self.topology, (!full).then_some(&rows[..]));
+        run(opts.threads, || {
+            for (cached, new) in self.laplacians.iter_mut().zip(laplacians) {
+                commit(&mut cached.per_tet, &tets, new);
+                let values = std::mem::take(&mut cached.values);
+                cached.values = laplacian_values(topo, &cached.per_tet, all, values);
+            }
+            for (cached, new) in self.masses.iter_mut().zip(masses) {
+                commit(&mut cached.per_tet, &tets, new);
+                let values = std::mem::take(&mut cached.values);
+                cached.values = mass_values(topo, cached.kind, &cached.per_tet, all, values);
+            }
+        })?;
+        Ok(Update {
+            moved_vertices: moved.len(),
+            recomputed_tets: tets.len(),
+            recomputed_rows: rows.len(),
+        })
+    }
+}
+
+/// New per-tet values of every cached operator: all tets (`full`) or the listed ones.
+fn recompute<K: Copy + Sync, T: Copy + Default + Send + Sync>(
+    mesh: &TetMesh,
+    opts: Options,
+    tets: &[u32],
+    full: bool,
+    cached: &[Cached<K, T>],
+    f: impl Fn(&LocalTet, K) -> std::result::Result<T, Fault> + Sync,
+) -> Result<Vec<Vec<T>>> {
+    cached
+        .iter()
+        .map(|c| {
+            if full {
+                let mut all = vec![T::default(); mesh.n_tets()];
+                per_tet(mesh, opts.degenerate, &mut all, |t| f(t, c.kind)).map(|_| all)
+            } else {
+                per_tet_subset(mesh, opts.degenerate, tets, |t| f(t, c.kind))
+            }
+        })
+        .collect()
+}
+
+fn commit<T: Copy>(per_tet: &mut Vec<T>, tets: &[u32], new: Vec<T>) {
+    if new.len() == per_tet.len() && tets.len() != new.len() {
+        *per_tet = new;
+    } else {
+        for (&t, v) in tets.iter().zip(new) {
+            per_tet[t as usize] = v;
+        }
+    }
+}
+
