@@ -63,9 +63,11 @@ def test_primal_is_negative_semidefinite_and_dual_is_not_always(mesh):
     assert abs(lam[0]) <= 1e-12 * lam[-1]  # constants are in the null space
 
 
-def test_dual_indefinite_on_a_non_delaunay_mesh():
-    """A flat bipyramid split into 3 tets around its short axis (the 2-tet split is the
-    Delaunay one): the dual is indefinite (Table 1), the primal stays NSD."""
+def test_dual_indefinite_with_boundary_primal_never():
+    """A flat bipyramid split into 3 tets around its short axis (its Delaunay split):
+    all edges but the axis are on the boundary, where dual weights may be negative, and
+    the dual is indefinite (Table 1: NSD only without boundary); the primal stays NSD.
+    The non-Delaunay 2-tet split happens to keep the dual semidefinite."""
     h = 0.1
     V = np.array([[1, 0, 0], [-0.5, 0.866, 0], [-0.5, -0.866, 0], [0, 0, h], [0, 0, -h]])
     T = np.array([[3, 4, 0, 1], [3, 4, 1, 2], [3, 4, 2, 0]])
@@ -73,7 +75,6 @@ def test_dual_indefinite_on_a_non_delaunay_mesh():
     assert lam[0] < -1e-2 * lam[-1]
     lam_p = np.linalg.eigvalsh(-tetlap.laplacian(V, T, "primal").toarray())
     assert lam_p[0] >= -1e-12 * lam_p[-1]
-    # the Delaunay split of the same points keeps the dual semidefinite
     lam_d = np.linalg.eigvalsh(-tetlap.laplacian(V, [[0, 1, 2, 3], [0, 1, 2, 4]], "dual").toarray())
     assert lam_d[0] >= -1e-12 * lam_d[-1]
 
@@ -206,3 +207,12 @@ def test_dual_weights_of_interior_delaunay_edges_are_non_negative(seed, n):
     interior = np.array([(i, j) not in on_boundary for i, j in edges])
     assert interior.any()
     assert w[interior].min() >= -1e-12 * np.abs(w).max()
+
+
+def test_dual_indefinite_on_non_delaunay_ball_but_not_on_the_delaunay_one():
+    for weight_scale, nsd in ((0.0, True), (0.5, False)):
+        V, T = tetlap.meshes.weighted_ball(600, weight_scale, seed=1)
+        lam = np.linalg.eigvalsh(-tetlap.laplacian(V, T, "dual").toarray())
+        assert (lam[0] >= -1e-12 * lam[-1]) == nsd
+        lam_p = np.linalg.eigvalsh(-tetlap.laplacian(V, T, "primal").toarray())
+        assert lam_p[0] >= -1e-12 * lam_p[-1]

@@ -24,6 +24,7 @@ from .errors import (
     EmptyMeshError,
     IndexRangeError,
     InternalError,
+    MeshFileError,
     NonFiniteError,
     OptionError,
     RepeatedVertexError,
@@ -65,5 +66,6 @@ __all__ = [
     "RepeatedVertexError",
     "DegenerateElementError",
     "OptionError",
+    "MeshFileError",
     "InternalError",
 ]

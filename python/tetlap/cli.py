@@ -2,6 +2,8 @@
 
     tetlap info [MESH] [--json]    properties of both Laplacians on a mesh file
                                    (a built-in random Delaunay ball when MESH is omitted)
+    tetlap assemble MESH -o L.npz  save L (and M to L.mass.npz) for scipy.sparse.load_npz
+    tetlap bench [--sizes ...]     timings against the floor and installed baselines
 """
 
 from __future__ import annotations
@@ -28,19 +30,40 @@ def _load(path: str | None):
     return V, T, path
 
 
-def info(V, T) -> dict:
-    """Counts, boundary and the Table-1 checks of both Laplacians and both lumped masses."""
+def info(V, T, *, nsd: bool = True) -> dict:
+    """Counts, boundary, mesh quality and the Table-1 checks of both Laplacians and both
+    lumped masses, as one JSON-ready dict."""
     n = V.shape[0]
     boundary = diagnostics.boundary_vertices(T, n)
+    orientation = diagnostics.orientation(V, T) if V.shape[1] == 3 else None
     result = {
         "n_vertices": int(n),
         "n_tets": int(T.shape[0]),
         "n_boundary_vertices": int(boundary.sum()),
+        "n_boundary_faces": int(len(diagnostics.boundary_faces(T))),
         "n_unreferenced_vertices": int((~diagnostics.referenced_vertices(T, n)).sum()),
+        "n_positive_tets": None if orientation is None else int((orientation > 0).sum()),
+        "n_negative_tets": None if orientation is None else int((orientation < 0).sum()),
+        "n_degenerate_tets": int(diagnostics.degenerate_tets(V, T).sum()),
     }
+    if V.shape[1] == 3:
+        flags = diagnostics.non_delaunay_faces(V, T)
+        dihedral = diagnostics.dihedral_angles(V, T)
+        result.update({
+            "n_interior_faces": int(len(flags)),
+            "non_delaunay_face_fraction": float(flags.mean()) if len(flags) else 0.0,
+            "non_delaunay_tet_fraction": float(diagnostics.non_delaunay_tets(V, T).mean()),
+            "min_dihedral_deg": float(np.nanmin(dihedral)),
+            "max_dihedral_deg": float(np.nanmax(dihedral)),
+            "well_centered_tet_fraction": float(diagnostics.well_centered(V, T).mean()),
+        })
+    else:
+        result.update({"n_interior_faces": None, "non_delaunay_face_fraction": None,
+                       "non_delaunay_tet_fraction": None, "min_dihedral_deg": None,
+                       "max_dihedral_deg": None, "well_centered_tet_fraction": None})
     for kind in _KINDS:
         L = assembly.laplacian(V, T, kind)
-        r = check(L, V, T)
+        r = check(L, V, T, nsd=nsd)
         result[kind] = {
             "symmetric": r.symmetric,
             "max_row_sum": r.max_row_sum,
@@ -74,7 +97,15 @@ def _fmt(v) -> str:
 def _print_info(result: dict, source: str) -> None:
     print(f"mesh: {source}")
     print(f"{result['n_vertices']} vertices ({result['n_boundary_vertices']} on the boundary, "
-          f"{result['n_unreferenced_vertices']} unreferenced), {result['n_tets']} tets")
+          f"{result['n_unreferenced_vertices']} unreferenced), {result['n_tets']} tets "
+          f"({result['n_positive_tets']} positive, {result['n_negative_tets']} negative, "
+          f"{result['n_degenerate_tets']} degenerate)")
+    if result["non_delaunay_face_fraction"] is not None:
+        print(f"non-Delaunay interior faces: {100 * result['non_delaunay_face_fraction']:.2f}% "
+              f"of {result['n_interior_faces']} (tets: "
+              f"{100 * result['non_delaunay_tet_fraction']:.2f}%); dihedral angles "
+              f"{result['min_dihedral_deg']:.2f}..{result['max_dihedral_deg']:.2f} deg; "
+              f"well-centered tets: {100 * result['well_centered_tet_fraction']:.2f}%")
     rows = [
         ("finite", "finite"),
         ("symmetric", "symmetric"),
@@ -99,18 +130,72 @@ def _print_info(result: dict, source: str) -> None:
         print(f"{kind:<12} {m[kind]['total']:>14.10g}  {m[kind]['min']:>12.3e}")
 
 
+def mass_output(output: str) -> str:
+    """Where ``tetlap assemble -o OUTPUT`` writes the mass matrix."""
+    return output[:-4] + ".mass.npz" if output.endswith(".npz") else output + ".mass.npz"
+
+
+def _assemble(args) -> int:
+    import scipy.sparse as sp
+
+    from . import io
+
+    kind = args.laplacian
+    try:
+        kind = float(kind)
+    except ValueError:
+        pass
+    try:
+        V, T = io.read(args.mesh)
+        L, M = assembly.operators(V, T, laplacian=kind, mass=args.mass,
+                                  degenerate=args.degenerate)
+        sp.save_npz(args.output, L)
+        sp.save_npz(mass_output(args.output), M)
+    except (ValueError, OSError, ImportError) as e:
+        print(f"tetlap: error: {e}", file=sys.stderr)
+        return 2
+    print(f"L ({args.laplacian}, {L.shape[0]} x {L.shape[1]}, {L.nnz} entries) -> {args.output}")
+    print(f"M ({args.mass}) -> {mass_output(args.output)}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="tetlap", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
     p_info = sub.add_parser("info", help="properties of both Laplacians on a mesh")
     p_info.add_argument("mesh", nargs="?", help="mesh file (any format meshio reads)")
     p_info.add_argument("--json", action="store_true", help="print one JSON object")
+    p_info.add_argument("--no-nsd", action="store_true",
+                        help="skip the semidefiniteness check (the slowest one)")
+    p_asm = sub.add_parser("assemble", help="save L and M as scipy .npz files")
+    p_asm.add_argument("mesh", help="mesh file (any format meshio reads)")
+    p_asm.add_argument("-o", "--output", required=True,
+                       help="L goes to OUTPUT, M to OUTPUT with .npz replaced by .mass.npz")
+    p_asm.add_argument("--laplacian", default="dual",
+                       help='"primal", "dual" (default) or t in [0, 1]')
+    p_asm.add_argument("--mass", default="circumcentric",
+                       choices=["barycentric", "circumcentric", "fem"])
+    p_asm.add_argument("--degenerate", default="raise", choices=["raise", "skip"])
+    p_bench = sub.add_parser("bench", help="timings against the floor and the baselines")
+    p_bench.add_argument("--sizes", nargs="+", choices=["10k", "100k", "1M", "4M"],
+                         help="Kuhn-grid sizes in tets (default 10k 100k 1M; --quick: 10k 100k)")
+    p_bench.add_argument("--threads", type=int, default=None, help="worker threads (default: all)")
+    p_bench.add_argument("--repeat", type=int, default=None, help="repetitions (median reported)")
+    p_bench.add_argument("--quick", action="store_true", help="small sizes, fast baselines only")
+    p_bench.add_argument("--json", action="store_true", help="print JSON records")
     args = parser.parse_args(argv)
 
+    if args.command == "bench":
+        from . import benchmark
+
+        return benchmark.main(args)
+
+    if args.command == "assemble":
+        return _assemble(args)
     if args.command == "info":
         try:
             V, T, source = _load(args.mesh)
-            result = info(V, T)
+            result = info(V, T, nsd=not args.no_nsd)
         except (ValueError, OSError, ImportError) as e:
             print(f"tetlap: error: {e}", file=sys.stderr)
             return 2

@@ -26,6 +26,7 @@ __all__ = [
     "RepeatedVertexError",
     "DegenerateElementError",
     "OptionError",
+    "MeshFileError",
     "InternalError",
 ]
 
@@ -71,6 +72,10 @@ class DegenerateElementError(TetlapError):
 
 class OptionError(TetlapError):
     """An option has a value outside its domain (kind, threads, t, policy)."""
+
+
+class MeshFileError(TetlapError):
+    """A mesh file could not be read (unknown format, malformed content)."""
 
 
 class InternalError(TetlapError):

@@ -1,5 +1,7 @@
 """Built-in, seeded, deterministic tetrahedral meshes.
 
+>>> import tetlap
+
 Every generator returns ``(V, T)``: ``V`` (n, 3) float64, ``T`` (m, 4) int64, positively
 oriented (``det[x1-x0, x2-x0, x3-x0] > 0``).
 """
@@ -10,7 +12,7 @@ import itertools
 
 import numpy as np
 
-__all__ = ["cube", "ball", "single_tet", "orient"]
+__all__ = ["cube", "ball", "weighted_ball", "regular_triangulation", "single_tet", "orient"]
 
 
 def orient(V, T) -> np.ndarray:
@@ -80,6 +82,21 @@ def _fibonacci_sphere(n: int) -> np.ndarray:
     return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
 
 
+def _ball_points(n: int, rng) -> np.ndarray:
+    n_boundary = min(n - 1, int(4 * n ** (2 / 3)))
+    n_interior = n - n_boundary
+    direction = rng.normal(size=(n_interior, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    radius = 0.97 * rng.uniform(size=(n_interior, 1)) ** (1 / 3)
+    return np.vstack([_fibonacci_sphere(n_boundary), radius * direction]), n_boundary
+
+
+def _drop_flat(V, T):
+    e = V[T[:, 1:]] - V[T[:, :1]]
+    vol = np.abs(np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2]))) / 6
+    return T[vol > 1e-12 * vol.mean()]
+
+
 def ball(n: int = 2000, *, seed: int = 0):
     """Random Delaunay tetrahedralisation of the unit ball (slivers included).
 
@@ -95,15 +112,45 @@ def ball(n: int = 2000, *, seed: int = 0):
     """
     from scipy.spatial import Delaunay
 
-    rng = np.random.default_rng(seed)
-    n_boundary = min(n - 1, int(4 * n ** (2 / 3)))
-    n_interior = n - n_boundary
-    direction = rng.normal(size=(n_interior, 3))
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    radius = 0.97 * rng.uniform(size=(n_interior, 1)) ** (1 / 3)
-    V = np.vstack([_fibonacci_sphere(n_boundary), radius * direction])
-    T = Delaunay(V).simplices.astype(np.int64)
-    e = V[T[:, 1:]] - V[T[:, :1]]
-    vol = np.abs(np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2]))) / 6
-    T = T[vol > 1e-12 * vol.mean()]
+    V, _ = _ball_points(n, np.random.default_rng(seed))
+    T = _drop_flat(V, Delaunay(V).simplices.astype(np.int64))
     return V, orient(V, T)
+
+
+def regular_triangulation(V, weights) -> np.ndarray:
+    """The regular (weighted Delaunay) tetrahedralisation of points ``V`` (n, 3) with
+    ``weights`` (n,): the lower convex hull of the lifted points ``(x, |x|^2 - w)``
+    (``scipy.spatial.ConvexHull``), zero-volume tets removed, positively oriented.
+    Points whose weight is too small to appear are left unreferenced. Zero weights give
+    the Delaunay tetrahedralisation."""
+    from scipy.spatial import ConvexHull
+
+    V = np.asarray(V, dtype=np.float64)
+    lifted = np.column_stack([V, (V**2).sum(axis=1) - np.asarray(weights, dtype=np.float64)])
+    hull = ConvexHull(lifted)
+    T = hull.simplices[hull.equations[:, 3] < 0].astype(np.int64)
+    return orient(V, _drop_flat(V, T))
+
+
+def weighted_ball(n: int = 2000, weight_scale: float = 0.0, *, seed: int = 0):
+    """A ball meshed by a regular triangulation with random weights: non-Delaunay tets.
+
+    The points of :func:`ball`; interior points get weights uniform in
+    ``[0, weight_scale * h^2]`` (``h`` the mean spacing ``(4/3 pi / n)^(1/3)``), boundary
+    points weight 0, so the boundary stays the same. ``weight_scale = 0`` is the Delaunay
+    ball; the fraction of non-Delaunay tets grows with ``weight_scale`` (n = 800: about
+    5%, 10%, 17%, 33%, 48% for 0.05, 0.1, 0.2, 0.5, 1; see
+    :func:`tetlap.diagnostics.non_delaunay_tets`).
+
+    Example
+    -------
+    >>> V, T = weighted_ball(500, 1.0, seed=0)
+    >>> bool(tetlap.diagnostics.non_delaunay_tets(V, T).mean() > 0.05)
+    True
+    """
+    rng = np.random.default_rng(seed)
+    V, n_boundary = _ball_points(n, rng)
+    h = (4 / 3 * np.pi / n) ** (1 / 3)
+    w = rng.uniform(0, weight_scale * h * h, size=n)
+    w[:n_boundary] = 0
+    return V, regular_triangulation(V, w)

@@ -1,0 +1,117 @@
+"""tetlap.check: every line of the report can fail, and says why."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import tetlap
+import tetlap.properties as properties
+
+
+@pytest.fixture
+def cube():
+    return tetlap.meshes.cube(3, jitter=0.15, seed=4)
+
+
+def test_good_operator_passes_everything(cube):
+    V, T = cube
+    L, M = tetlap.operators(V, T, "primal", "barycentric")
+    r = tetlap.check(L, V, T, M)
+    assert (r.finite, r.symmetric, r.row_sums_ok, r.local, r.linear_precision_ok, r.nsd) == (
+        True, True, True, True, True, True)
+    assert r.nsd_method == "dense eigenvalues"
+    assert r.mass_nonpositive == 0
+    assert r.mass_total == pytest.approx(r.mesh_volume, rel=1e-12)
+    assert json.loads(json.dumps(r.to_dict()))["n_tets"] == len(T)
+    text = str(r)
+    assert "linear precision" in text and "negative semidefinite" in text
+
+
+def test_kuhn_grid_zero_weights_are_not_negative():
+    V, T = tetlap.meshes.cube(3)
+    L = tetlap.laplacian(V, T, "primal")
+    edges, w = tetlap.edge_weights(V, T, "primal")
+    assert (w == 0).sum() + (np.abs(w) < 1e-15).sum() > 0  # right dihedral angles
+    r = tetlap.check(L, V, T)
+    assert r.n_negative == 0 and r.min_weight > -1e-12 * np.abs(w).max()
+    strict = tetlap.check(L, V, T, negative_tol=-1.0)  # every w < 0 counts, even -1e-17
+    assert strict.n_negative >= r.n_negative
+
+
+def test_each_failure_is_detected(cube):
+    V, T = cube
+    L = tetlap.laplacian(V, T, "dual").tolil()
+    asym = L.copy()
+    asym[0, 1] += 0.5
+    r = tetlap.check(asym.tocsr(), V, T)
+    assert not r.symmetric and not r.row_sums_ok
+    far = L.copy()
+    i, j = 0, len(V) - 1
+    assert j not in L.rows[i]
+    far[i, j] = far[j, i] = 1e-3
+    far[i, i] -= 1e-3
+    far[j, j] -= 1e-3
+    r = tetlap.check(far.tocsr(), V, T)
+    assert r.symmetric and r.row_sums_ok and not r.local
+    graph = tetlap.laplacian(V, T, "dual").copy()
+    off = graph.indices != np.repeat(np.arange(len(V)), np.diff(graph.indptr))
+    graph.data[off] = 1.0
+    graph = sp.csr_array(graph - sp.diags_array(np.asarray(graph.sum(axis=1)).ravel()))
+    r = tetlap.check(graph, V, T)
+    assert r.row_sums_ok and not r.linear_precision_ok  # the uniform Laplacian
+    nan = tetlap.laplacian(V, T, "dual").copy()
+    nan.data[3] = np.nan
+    r = tetlap.check(nan, V, T)
+    assert not r.finite and r.nsd is None
+
+
+def test_non_delaunay_dual_is_reported_indefinite_with_negative_weights():
+    V, T = tetlap.meshes.weighted_ball(600, 0.5, seed=1)
+    L, M = tetlap.operators(V, T, "dual", "circumcentric")
+    r = tetlap.check(L, V, T, M)
+    assert r.nsd is False and r.nsd_min_eigenvalue < 0
+    assert r.n_negative_interior > 0 and r.linear_precision_ok
+    assert "NO" in str(r)
+    p = tetlap.check(tetlap.laplacian(V, T, "primal"), V, T)
+    assert p.nsd is True
+
+
+def test_sparse_ldl_certificate_agrees_with_dense_eigenvalues(monkeypatch):
+    cases = [(tetlap.meshes.ball(700, seed=2), "primal"), (tetlap.meshes.ball(700, seed=2), "dual"),
+             (tetlap.meshes.weighted_ball(600, 0.5, seed=1), "dual")]
+    dense = [tetlap.check(tetlap.laplacian(V, T, k), V, T).nsd for (V, T), k in cases]
+    assert dense == [True, True, False]
+    monkeypatch.setattr(properties, "DENSE_NSD_MAX", 10)
+    for ((V, T), k), expected in zip(cases, dense):
+        r = tetlap.check(tetlap.laplacian(V, T, k), V, T)
+        assert "LDL" in r.nsd_method and r.nsd == expected
+    monkeypatch.setattr(properties, "SPARSE_NSD_MAX", 10)
+    (V, T), k = cases[0]
+    r = tetlap.check(tetlap.laplacian(V, T, k), V, T)
+    assert r.nsd is None and "skipped" in r.nsd_method
+
+
+def test_mass_lines(cube):
+    V, T = tetlap.meshes.weighted_ball(600, 1.0, seed=3)
+    M = tetlap.mass(V, T, "circumcentric")
+    r = tetlap.check(tetlap.laplacian(V, T, "dual"), V, T, M)
+    assert r.mass_nonpositive > 0 and r.mass_min < 0
+    assert r.mass_total == pytest.approx(r.mesh_volume, rel=1e-10)
+
+
+def test_immersed_mesh_skips_linear_precision(cube):
+    V, T = cube
+    V4 = np.column_stack([V, V[:, 0] ** 2])
+    r = tetlap.check(tetlap.laplacian(V4, T, "primal"), V4, T)
+    assert r.linear_precision_residual is None and r.nsd
+    assert any("immersed" in n for n in r.notes)
+
+
+def test_shape_mismatch(cube):
+    V, T = cube
+    with pytest.raises(tetlap.ShapeError):
+        tetlap.check(sp.eye_array(3, format="csr"), V, T)
