@@ -91,3 +91,27 @@ def degenerate(policy) -> str:
     if policy in ("raise", "skip"):
         return policy
     raise OptionError(f'degenerate must be "raise" or "skip", got {policy!r}')
+
+
+def boundary(treatment) -> str:
+    if treatment in ("circumcentric", "barycentric"):
+        return treatment
+    raise OptionError(
+        f'boundary must be "circumcentric" or "barycentric", got {treatment!r}')
+
+
+def options(threads_, degenerate_, boundary_) -> tuple:
+    """The core's options tuple ``(threads, degenerate, boundary)``."""
+    return threads(threads_), degenerate(degenerate_), boundary(boundary_)
+
+
+def vertex_weights(w, n: int) -> np.ndarray | None:
+    """Per-vertex weights as a contiguous (n,) float64 array, or None."""
+    if w is None:
+        return None
+    arr = _as_array(w, "weights")
+    if arr.dtype.kind not in "fiu":
+        raise DtypeError(f"weights must hold real numbers, got dtype {arr.dtype}")
+    if arr.ndim != 1 or arr.shape[0] != n:
+        raise ShapeError(f"weights must have shape ({n},), one per vertex, got {arr.shape}")
+    return np.ascontiguousarray(arr, dtype=np.float64)

@@ -12,6 +12,13 @@ L : (n, n) ``scipy.sparse.csr_array``, float64, sorted indices, no duplicates, p
     is negative semidefinite, and ``-L`` is the P1 stiffness matrix.
 kind : ``"primal"`` (P1 FEM / cotan, Eq. 7), ``"dual"`` (circumcentric DEC, Eq. 17-20),
     or a float ``t`` in [0, 1] for ``(1 - t) L_primal + t L_dual`` (Sec. 9).
+boundary : ``"circumcentric"`` (default) or ``"barycentric"``: in tets with a boundary
+    face, dual vertices (tet and face circumcenters) outside their simplex are replaced by
+    centroids (paper Sec. 6). Positive circumcentric masses and dual weights in those tets;
+    linear precision is lost at their vertices. Affects the dual and circumcentric mass.
+weights : optional (n,) vertex weights (squared length units) for the dual and the
+    circumcentric mass: weighted circumcenters, i.e. the orthogonal dual of a regular
+    (weighted Delaunay) triangulation, a power diagram. ``None`` or zeros: the plain dual.
 degenerate : ``"raise"`` (default: a zero-volume tet raises
     :class:`~tetlap.DegenerateElementError` naming it) or ``"skip"`` (such tets contribute
     nothing; their edges stay in the pattern).
@@ -40,12 +47,9 @@ __all__ = [
 ]
 
 
-def _inputs(V, T):
-    return _arrays.points(V), _arrays.elements(T)
-
-
-def _options(threads, degenerate):
-    return _arrays.threads(threads), _arrays.degenerate(degenerate)
+def _inputs(V, T, weights=None):
+    V = _arrays.points(V)
+    return V, _arrays.elements(T), _arrays.vertex_weights(weights, V.shape[0])
 
 
 def _csr(arrays, n: int) -> sp.csr_array:
@@ -65,7 +69,8 @@ def _mass(result, n: int) -> sp.csr_array:
     return _csr(arrays, n)
 
 
-def laplacian(V, T, kind="primal", *, degenerate="raise", threads=None) -> sp.csr_array:
+def laplacian(V, T, kind="primal", *, boundary="circumcentric", weights=None,
+              degenerate="raise", threads=None) -> sp.csr_array:
     """The (n, n) Laplacian of a tetrahedral mesh.
 
     Parameters
@@ -85,13 +90,15 @@ def laplacian(V, T, kind="primal", *, degenerate="raise", threads=None) -> sp.cs
     >>> L[[0], :].toarray().round(4)
     array([[-0.75,  0.25,  0.25,  0.25]])
     """
-    V, T = _inputs(V, T)
+    V, T, w = _inputs(V, T, weights)
+    opts = _arrays.options(threads, degenerate, boundary)
     name, t = _arrays.laplacian_kind(kind)
-    arrays = _core.laplacian(V, T, name, t, *_options(threads, degenerate))
+    arrays = _core.laplacian(V, T, w, name, t, opts)
     return _csr(arrays, V.shape[0])
 
 
-def mass(V, T, kind="barycentric", *, degenerate="raise", threads=None) -> sp.csr_array:
+def mass(V, T, kind="barycentric", *, boundary="circumcentric", weights=None,
+         degenerate="raise", threads=None) -> sp.csr_array:
     """The (n, n) mass matrix of a tetrahedral mesh.
 
     kind : ``"barycentric"`` (Eq. 3, ``Vol/4`` per tet corner, diagonal),
@@ -107,12 +114,14 @@ def mass(V, T, kind="barycentric", *, degenerate="raise", threads=None) -> sp.cs
     >>> tetlap.mass(V, [[0, 1, 2, 3]], kind="circumcentric").diagonal() * 72
     array([9., 1., 1., 1.])
     """
-    V, T = _inputs(V, T)
-    result = _core.mass(V, T, _arrays.mass_kind(kind), *_options(threads, degenerate))
+    V, T, w = _inputs(V, T, weights)
+    opts = _arrays.options(threads, degenerate, boundary)
+    result = _core.mass(V, T, w, _arrays.mass_kind(kind), opts)
     return _mass(result, V.shape[0])
 
 
-def operators(V, T, laplacian="primal", mass="barycentric", *, degenerate="raise",
+def operators(V, T, laplacian="primal", mass="barycentric", *, boundary="circumcentric",
+              weights=None, degenerate="raise",
               threads=None) -> tuple[sp.csr_array, sp.csr_array]:
     """``(L, M)`` from one pass over the tets; same conventions as :func:`laplacian`
     and :func:`mass`.
@@ -125,10 +134,10 @@ def operators(V, T, laplacian="primal", mass="barycentric", *, degenerate="raise
     >>> round(M.sum(), 12)
     1.0
     """
-    V, T = _inputs(V, T)
+    V, T, w = _inputs(V, T, weights)
+    opts = _arrays.options(threads, degenerate, boundary)
     name, t = _arrays.laplacian_kind(laplacian)
-    L, M = _core.operators(V, T, name, t, _arrays.mass_kind(mass),
-                           *_options(threads, degenerate))
+    L, M = _core.operators(V, T, w, name, t, _arrays.mass_kind(mass), opts)
     n = V.shape[0]
     return _csr(L, n), _mass(M, n)
 
@@ -142,7 +151,8 @@ class Triplets(NamedTuple):
     shape: tuple[int, int]
 
 
-def triplets(V, T, kind="primal", *, degenerate="raise", threads=None) -> Triplets:
+def triplets(V, T, kind="primal", *, boundary="circumcentric", weights=None,
+             degenerate="raise", threads=None) -> Triplets:
     """The Laplacian as unsummed triplets: 16 per tet, its local 4 x 4 Laplacian.
 
     Returns rows, cols (int64, shape (16 m,)), vals (float64) and shape (n, n); entry
@@ -158,14 +168,16 @@ def triplets(V, T, kind="primal", *, degenerate="raise", threads=None) -> Triple
     >>> bool(abs(L - tetlap.laplacian(V, T)).max() < 1e-12)
     True
     """
-    V, T = _inputs(V, T)
+    V, T, w = _inputs(V, T, weights)
+    opts = _arrays.options(threads, degenerate, boundary)
     name, t = _arrays.laplacian_kind(kind)
-    rows, cols, vals = _core.triplets(V, T, name, t, *_options(threads, degenerate))
+    rows, cols, vals = _core.triplets(V, T, w, name, t, opts)
     n = V.shape[0]
     return Triplets(rows, cols, vals, (n, n))
 
 
-def edge_weights(V, T, kind="primal", *, degenerate="raise", threads=None):
+def edge_weights(V, T, kind="primal", *, boundary="circumcentric", weights=None,
+                 degenerate="raise", threads=None):
     """Unique edges and their weights.
 
     Returns
@@ -181,12 +193,14 @@ def edge_weights(V, T, kind="primal", *, degenerate="raise", threads=None):
     >>> edges[0].tolist(), float(w[0])
     ([0, 1], 0.25)
     """
-    V, T = _inputs(V, T)
+    V, T, w = _inputs(V, T, weights)
+    opts = _arrays.options(threads, degenerate, boundary)
     name, t = _arrays.laplacian_kind(kind)
-    return _core.edge_weights(V, T, name, t, *_options(threads, degenerate))
+    return _core.edge_weights(V, T, w, name, t, opts)
 
 
-def tet_contributions(V, T, kind="primal", *, degenerate="raise", threads=None) -> np.ndarray:
+def tet_contributions(V, T, kind="primal", *, boundary="circumcentric", weights=None,
+                      degenerate="raise", threads=None) -> np.ndarray:
     """Per-tet edge weights, (m, 6) float64, local edge order
     ``(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)`` of each row of T.
 
@@ -197,6 +211,7 @@ def tet_contributions(V, T, kind="primal", *, degenerate="raise", threads=None) 
     >>> (tetlap.tet_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12)
     array([[1., 1., 1., 0., 0., 0.]])
     """
-    V, T = _inputs(V, T)
+    V, T, w = _inputs(V, T, weights)
+    opts = _arrays.options(threads, degenerate, boundary)
     name, t = _arrays.laplacian_kind(kind)
-    return _core.tet_contributions(V, T, name, t, *_options(threads, degenerate))
+    return _core.tet_contributions(V, T, w, name, t, opts)

@@ -31,7 +31,8 @@ class Mesh:
     Sec. 7.1). Rows always sum their tets in ascending order, so the result is **bitwise
     equal** to a fresh :func:`tetlap.laplacian` / :func:`tetlap.mass` of the new geometry.
 
-    Conventions, ``kind`` values, ``degenerate`` and ``threads`` are those of
+    Conventions, ``kind`` values, ``boundary``, ``weights``, ``degenerate`` and ``threads``
+    are those of
     :func:`tetlap.laplacian`. The returned matrices own their values; their index arrays
     are shared by all matrices of this Mesh and read-only (copy a matrix before changing
     its structure in place, e.g. ``L.copy().eliminate_zeros()``). A Mesh is not meant to be
@@ -50,9 +51,11 @@ class Mesh:
     0
     """
 
-    def __init__(self, V, T, *, degenerate="raise", threads=None) -> None:
+    def __init__(self, V, T, *, boundary="circumcentric", weights=None, degenerate="raise",
+                 threads=None) -> None:
         V, T = _arrays.points(V), _arrays.elements(T)
-        self._core = _core.Mesh(V, T, _arrays.threads(threads), _arrays.degenerate(degenerate))
+        w = _arrays.vertex_weights(weights, V.shape[0])
+        self._core = _core.Mesh(V, T, w, _arrays.options(threads, degenerate, boundary))
         self._n = V.shape[0]
         indices, indptr = self._core.pattern()
         self._indices = indices.view(np.int32) if indptr.dtype == np.int32 else indices.astype(np.int64)

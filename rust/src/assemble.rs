@@ -6,8 +6,9 @@ use crate::error::{Error, Result};
 use crate::geometry::{local_tet, LocalTet};
 use crate::local;
 use crate::mesh::TetMesh;
-use crate::topology::{groups_mut, Topology, OTHERS};
+use crate::topology::{boundary_tets, groups_mut, Topology, OTHERS};
 use rayon::prelude::*;
+use std::borrow::Cow;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Which Laplacian (paper Sec. 4-5, 9).
@@ -42,6 +43,20 @@ pub enum Degenerate {
     Skip,
 }
 
+/// Dual vertices of tets with a boundary face (paper Sec. 6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Boundary {
+    /// Plain per-tet assembly: dual cells at the boundary are closed by the face
+    /// circumcenters. Linear precision at every interior vertex; boundary weights and
+    /// masses may be negative.
+    #[default]
+    Circumcentric,
+    /// In tets with a boundary face, a tet or face circumcenter outside its simplex is
+    /// replaced by the centroid: positive masses and weights there, at the cost of linear
+    /// precision at the vertices of those tets.
+    Barycentric,
+}
+
 /// Options common to every assembly.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Options {
@@ -50,6 +65,8 @@ pub struct Options {
     pub threads: Option<usize>,
     /// Policy for degenerate tets.
     pub degenerate: Degenerate,
+    /// Boundary treatment of the dual Laplacian and the circumcentric mass.
+    pub boundary: Boundary,
 }
 
 /// Why one tet could not be evaluated.
@@ -82,6 +99,61 @@ pub(crate) fn run<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send)
     }
 }
 
+/// Which tets get the barycentric boundary fix, if the options ask for it.
+pub(crate) fn boundary_mask(mesh: &TetMesh, opts: &Options) -> Option<Vec<bool>> {
+    (opts.boundary == Boundary::Barycentric).then(|| boundary_tets(mesh.tets()))
+}
+
+/// One tet as the kernels see it: its local frame, its vertex weights (scaled like the
+/// frame, squared) if the dual is weighted, and whether the boundary fix applies to it.
+pub(crate) struct Element {
+    pub frame: LocalTet,
+    pub weights: Option<[f64; 4]>,
+    pub fix_boundary: bool,
+}
+
+impl Element {
+    fn dual(&self) -> local::Dual {
+        if self.weights.is_none() && !self.fix_boundary {
+            return local::dual(&self.frame);
+        }
+        let centers = local::Centers::weighted(&self.frame, self.weights.unwrap_or([0.0; 4]));
+        let centers = if self.fix_boundary { centers.clamp_to_centroids(&self.frame) } else { centers };
+        local::dual_from_centers(&self.frame, &centers)
+    }
+}
+
+/// The tets of a mesh as [`Element`]s, with the boundary mask the options ask for.
+pub(crate) struct Elements<'a> {
+    mesh: TetMesh<'a>,
+    boundary: Option<Cow<'a, [bool]>>,
+}
+
+impl<'a> Elements<'a> {
+    pub fn new(mesh: TetMesh<'a>, opts: &Options) -> Self {
+        Elements { mesh, boundary: boundary_mask(&mesh, opts).map(Cow::Owned) }
+    }
+
+    /// Elements with a boundary mask computed before (see [`boundary_mask`]).
+    pub fn with_mask(mesh: TetMesh<'a>, boundary: Option<&'a [bool]>) -> Self {
+        Elements { mesh, boundary: boundary.map(Cow::Borrowed) }
+    }
+
+    fn get(&self, t: usize, scratch: &mut [f64]) -> Element {
+        let mesh = &self.mesh;
+        let tet = mesh.tets()[t];
+        let frame = local_tet(tet.map(|v| mesh.point(v)), scratch);
+        let s2 = frame.scale * frame.scale;
+        let weights = mesh.weights().map(|w| tet.map(|v| (w[v as usize] - w[tet[0] as usize]) / s2));
+        let fix_boundary = self.boundary.as_ref().is_some_and(|b| b[t]);
+        Element { frame, weights, fix_boundary }
+    }
+
+    fn scratch_len(&self) -> usize {
+        if self.mesh.dim() > 3 { 3 * self.mesh.dim() } else { 0 }
+    }
+}
+
 fn finite<const K: usize>(v: [f64; K]) -> std::result::Result<[f64; K], Fault> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(v)
@@ -91,15 +163,16 @@ fn finite<const K: usize>(v: [f64; K]) -> std::result::Result<[f64; K], Fault> {
 }
 
 /// The six weights of one tet for `kind`.
-pub(crate) fn weights(t: &LocalTet, kind: LaplacianKind) -> std::result::Result<[f64; 6], Fault> {
+pub(crate) fn weights(el: &Element, kind: LaplacianKind) -> std::result::Result<[f64; 6], Fault> {
+    let t = &el.frame;
     if local::is_degenerate(t) {
         return Err(Fault::ZeroVolume);
     }
     finite(match kind {
         LaplacianKind::Primal => local::primal_weights(t),
-        LaplacianKind::Dual => local::dual(t).weights,
+        LaplacianKind::Dual => el.dual().weights,
         LaplacianKind::Affine(s) => {
-            let (p, d) = (local::primal_weights(t), local::dual(t).weights);
+            let (p, d) = (local::primal_weights(t), el.dual().weights);
             std::array::from_fn(|e| (1.0 - s) * p[e] + s * d[e])
         }
     })
@@ -107,28 +180,29 @@ pub(crate) fn weights(t: &LocalTet, kind: LaplacianKind) -> std::result::Result<
 
 /// The four corner masses of one tet for a lumped `kind`; for [`MassKind::Fem`] the tet's
 /// volume in every slot.
-pub(crate) fn corner_mass(t: &LocalTet, kind: MassKind) -> std::result::Result<[f64; 4], Fault> {
+pub(crate) fn corner_mass(el: &Element, kind: MassKind) -> std::result::Result<[f64; 4], Fault> {
+    let t = &el.frame;
     if local::is_degenerate(t) {
         return Err(Fault::ZeroVolume);
     }
     finite(match kind {
         MassKind::Barycentric => local::barycentric_mass(t),
-        MassKind::Circumcentric => local::dual(t).cell_volumes,
+        MassKind::Circumcentric => el.dual().cell_volumes,
         MassKind::Fem => [local::volume(t); 4],
     })
 }
 
 /// Weights and corner masses of one tet, sharing the dual construction when both need it.
 pub(crate) fn weights_and_mass(
-    t: &LocalTet,
+    el: &Element,
     lap: LaplacianKind,
     mass: MassKind,
 ) -> std::result::Result<([f64; 6], [f64; 4]), Fault> {
-    if lap == LaplacianKind::Dual && mass == MassKind::Circumcentric && !local::is_degenerate(t) {
-        let d = local::dual(t);
+    if lap == LaplacianKind::Dual && mass == MassKind::Circumcentric && !local::is_degenerate(&el.frame) {
+        let d = el.dual();
         return Ok((finite(d.weights)?, finite(d.cell_volumes)?));
     }
-    Ok((weights(t, lap)?, corner_mass(t, mass)?))
+    Ok((weights(el, lap)?, corner_mass(el, mass)?))
 }
 
 /// The parallel per-tet pass: `f` of every tet into its own slot of `out`.
@@ -137,16 +211,15 @@ pub(crate) fn weights_and_mass(
 /// [`Degenerate::Raise`] the first such tet (lowest index, whatever the scheduling) is
 /// reported.
 pub(crate) fn per_tet<T: Copy + Default + Send + Sync>(
-    mesh: &TetMesh,
+    elements: &Elements,
     degenerate: Degenerate,
     out: &mut [T],
-    f: impl Fn(&LocalTet) -> std::result::Result<T, Fault> + Sync,
+    f: impl Fn(&Element) -> std::result::Result<T, Fault> + Sync,
 ) -> Result<()> {
-    let scratch_len = scratch_len(mesh);
     let first_fault = AtomicUsize::new(usize::MAX);
     out.par_iter_mut().enumerate().for_each_init(
-        || vec![0.0; scratch_len],
-        |scratch, (t, slot)| match f(&tet_frame(mesh, t, scratch)) {
+        || vec![0.0; elements.scratch_len()],
+        |scratch, (t, slot)| match f(&elements.get(t, scratch)) {
             Ok(v) => *slot = v,
             Err(_) => {
                 *slot = T::default();
@@ -154,45 +227,38 @@ pub(crate) fn per_tet<T: Copy + Default + Send + Sync>(
             }
         },
     );
-    fault_to_error(mesh, degenerate, first_fault.into_inner(), &f)
+    fault_to_error(elements, degenerate, first_fault.into_inner(), &f)
 }
 
 /// [`per_tet`] for the listed tets only: their values, in the order of `tets`.
 pub(crate) fn per_tet_subset<T: Copy + Default + Send + Sync>(
-    mesh: &TetMesh,
+    elements: &Elements,
     degenerate: Degenerate,
     tets: &[u32],
-    f: impl Fn(&LocalTet) -> std::result::Result<T, Fault> + Sync,
+    f: impl Fn(&Element) -> std::result::Result<T, Fault> + Sync,
 ) -> Result<Vec<T>> {
-    let scratch_len = scratch_len(mesh);
     let results: Vec<_> = tets
         .par_iter()
-        .map_init(|| vec![0.0; scratch_len], |scratch, &t| f(&tet_frame(mesh, t as usize, scratch)))
+        .map_init(|| vec![0.0; elements.scratch_len()], |scratch, &t| {
+            f(&elements.get(t as usize, scratch))
+        })
         .collect();
     let first = tets.iter().zip(&results).filter(|(_, r)| r.is_err()).map(|(&t, _)| t as usize).min();
-    fault_to_error(mesh, degenerate, first.unwrap_or(usize::MAX), &f)?;
+    fault_to_error(elements, degenerate, first.unwrap_or(usize::MAX), &f)?;
     Ok(results.into_iter().map(|r| r.unwrap_or_default()).collect())
-}
-
-fn scratch_len(mesh: &TetMesh) -> usize {
-    if mesh.dim() > 3 { 3 * mesh.dim() } else { 0 }
-}
-
-fn tet_frame(mesh: &TetMesh, t: usize, scratch: &mut [f64]) -> LocalTet {
-    local_tet(mesh.tets()[t].map(|v| mesh.point(v)), scratch)
 }
 
 /// The error for the first failing tet `t` (`usize::MAX`: none) under the policy.
 fn fault_to_error<T>(
-    mesh: &TetMesh,
+    elements: &Elements,
     degenerate: Degenerate,
     t: usize,
-    f: impl Fn(&LocalTet) -> std::result::Result<T, Fault>,
+    f: impl Fn(&Element) -> std::result::Result<T, Fault>,
 ) -> Result<()> {
     if t == usize::MAX || degenerate == Degenerate::Skip {
         return Ok(());
     }
-    Err(match f(&tet_frame(mesh, t, &mut vec![0.0; scratch_len(mesh)])) {
+    Err(match f(&elements.get(t, &mut vec![0.0; elements.scratch_len()])) {
         Err(Fault::ZeroVolume) => Error::Degenerate { element: t },
         _ => Error::NonFiniteResult { element: t },
     })

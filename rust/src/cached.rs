@@ -3,11 +3,10 @@
 
 use crate::assemble::{
     check_kind, corner_mass, laplacian_values, mass_values, per_tet, per_tet_subset, run,
-    weights, Fault, LaplacianKind, MassKind, Options,
+    boundary_mask, weights, Element, Elements, Fault, LaplacianKind, MassKind, Options,
 };
 use crate::csr::Csr;
 use crate::error::{Error, Result};
-use crate::geometry::LocalTet;
 use crate::mesh::{check_points, TetMesh};
 use crate::operators::Mass;
 use crate::topology::Topology;
@@ -60,6 +59,8 @@ pub struct Mesh {
     points: Vec<f64>,
     dim: usize,
     tets: Vec<[u32; 4]>,
+    weights: Option<Vec<f64>>,
+    boundary: Option<Vec<bool>>,
     opts: Options,
     topology: Topology,
     laplacians: Vec<Cached<LaplacianKind, [f64; 6]>>,
@@ -69,9 +70,27 @@ pub struct Mesh {
 impl Mesh {
     /// Validates the mesh (as [`TetMesh::new`]) and computes its topology.
     pub fn new(points: Vec<f64>, dim: usize, tets: Vec<[u32; 4]>, opts: Options) -> Result<Self> {
-        TetMesh::new(&points, dim, &tets)?;
-        let topology = run(opts.threads, || Topology::new(&tets, points.len() / dim))??;
-        Ok(Mesh { points, dim, tets, opts, topology, laplacians: vec![], masses: vec![] })
+        Self::with_weights(points, dim, tets, None, opts)
+    }
+
+    /// [`Mesh::new`] with vertex weights for the dual (see [`TetMesh::with_weights`]).
+    pub fn with_weights(
+        points: Vec<f64>,
+        dim: usize,
+        tets: Vec<[u32; 4]>,
+        weights: Option<Vec<f64>>,
+        opts: Options,
+    ) -> Result<Self> {
+        let mesh = TetMesh::new(&points, dim, &tets)?;
+        if let Some(w) = &weights {
+            mesh.with_weights(w)?;
+        }
+        let (topology, boundary) = run(opts.threads, || {
+            rayon::join(|| Topology::new(&tets, points.len() / dim), || boundary_mask(&mesh, &opts))
+        })?;
+        let topology = topology?;
+        let (laplacians, masses) = (vec![], vec![]);
+        Ok(Mesh { points, dim, tets, weights, boundary, opts, topology, laplacians, masses })
     }
 
     /// The current coordinates, row-major `(n, dim)`.
@@ -94,8 +113,9 @@ impl Mesh {
         &self.topology
     }
 
-    fn view(&self) -> TetMesh<'_> {
-        TetMesh::trusted(&self.points, self.dim, &self.tets)
+    fn elements<'a>(&'a self, points: &'a [f64]) -> Elements<'a> {
+        let mesh = TetMesh::trusted(points, self.dim, &self.tets, self.weights.as_deref());
+        Elements::with_mask(mesh, self.boundary.as_deref())
     }
 
     /// CSR data of the Laplacian of `kind` on [`Mesh::topology`]'s pattern (computed on
@@ -105,10 +125,10 @@ impl Mesh {
         let index = match self.laplacians.iter().position(|c| c.kind == kind) {
             Some(index) => index,
             None => {
-                let (mesh, topo, opts) = (self.view(), &self.topology, self.opts);
+                let (elements, topo, opts) = (self.elements(&self.points), &self.topology, self.opts);
                 let cached = run(opts.threads, || -> Result<_> {
-                    let mut w = vec![[0.0; 6]; mesh.n_tets()];
-                    per_tet(&mesh, opts.degenerate, &mut w, |t| weights(t, kind))?;
+                    let mut w = vec![[0.0; 6]; self.tets.len()];
+                    per_tet(&elements, opts.degenerate, &mut w, |t| weights(t, kind))?;
                     let values = laplacian_values(topo, &w, None, vec![0.0; topo.nnz()]);
                     Ok(Cached { kind, per_tet: w, values })
                 })??;
@@ -131,10 +151,10 @@ impl Mesh {
         let index = match self.masses.iter().position(|c| c.kind == kind) {
             Some(index) => index,
             None => {
-                let (mesh, topo, opts) = (self.view(), &self.topology, self.opts);
+                let (elements, topo, opts) = (self.elements(&self.points), &self.topology, self.opts);
                 let cached = run(opts.threads, || -> Result<_> {
-                    let mut m = vec![[0.0; 4]; mesh.n_tets()];
-                    per_tet(&mesh, opts.degenerate, &mut m, |t| corner_mass(t, kind))?;
+                    let mut m = vec![[0.0; 4]; self.tets.len()];
+                    per_tet(&elements, opts.degenerate, &mut m, |t| corner_mass(t, kind))?;
                     let values = mass_values(topo, kind, &m, None, vec![]);
                     Ok(Cached { kind, per_tet: m, values })
                 })??;
@@ -190,7 +210,7 @@ impl Mesh {
             rows.sort_unstable();
             rows.dedup();
         }
-        let new = TetMesh::trusted(points, self.dim, &self.tets);
+        let new = self.elements(points);
         let opts = self.opts;
         let (laplacians, masses) = run(opts.threads, || -> Result<_> {
             let l = recompute(&new, opts, &tets, full, &self.laplacians, |t, k| weights(t, k))?;
@@ -223,21 +243,21 @@ impl Mesh {
 
 /// New per-tet values of every cached operator: all tets (`full`) or the listed ones.
 fn recompute<K: Copy + Sync, T: Copy + Default + Send + Sync>(
-    mesh: &TetMesh,
+    elements: &Elements,
     opts: Options,
     tets: &[u32],
     full: bool,
     cached: &[Cached<K, T>],
-    f: impl Fn(&LocalTet, K) -> std::result::Result<T, Fault> + Sync,
+    f: impl Fn(&Element, K) -> std::result::Result<T, Fault> + Sync,
 ) -> Result<Vec<Vec<T>>> {
     cached
         .iter()
         .map(|c| {
             if full {
-                let mut all = vec![T::default(); mesh.n_tets()];
-                per_tet(mesh, opts.degenerate, &mut all, |t| f(t, c.kind)).map(|_| all)
+                let mut all = vec![T::default(); c.per_tet.len()];
+                per_tet(elements, opts.degenerate, &mut all, |t| f(t, c.kind)).map(|_| all)
             } else {
-                per_tet_subset(mesh, opts.degenerate, tets, |t| f(t, c.kind))
+                per_tet_subset(elements, opts.degenerate, tets, |t| f(t, c.kind))
             }
         })
         .collect()

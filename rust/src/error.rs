@@ -17,6 +17,8 @@ pub enum Error {
     TooManyVertices { n_vertices: usize, max: usize },
     /// A coordinate is NaN or infinite.
     NonFiniteCoordinate { vertex: usize, coordinate: usize, value: f64 },
+    /// A vertex weight is NaN or infinite.
+    NonFiniteWeight { vertex: usize, value: f64 },
     /// An element refers to a vertex index `< 0` or `>= n_vertices`.
     IndexOutOfRange { element: usize, corner: usize, index: i64, n_vertices: usize },
     /// The same vertex appears twice in one element.
@@ -40,6 +42,7 @@ impl Error {
             Error::EmptyMesh { .. } => "EmptyMeshError",
             Error::TooManyVertices { .. } => "IndexRangeError",
             Error::NonFiniteCoordinate { .. } => "NonFiniteError",
+            Error::NonFiniteWeight { .. } => "NonFiniteError",
             Error::IndexOutOfRange { .. } => "IndexRangeError",
             Error::RepeatedVertex { .. } => "RepeatedVertexError",
             Error::Degenerate { .. } => "DegenerateElementError",
@@ -65,6 +68,9 @@ impl fmt::Display for Error {
                 f,
                 "vertex {vertex} has a non-finite coordinate {value} (column {coordinate})"
             ),
+            Error::NonFiniteWeight { vertex, value } => {
+                write!(f, "vertex {vertex} has a non-finite weight {value}")
+            }
             Error::IndexOutOfRange { element, corner, index, n_vertices } => write!(
                 f,
                 "element {element} refers to vertex {index} (corner {corner}), \

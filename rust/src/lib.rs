@@ -47,11 +47,11 @@ mod mesh;
 mod operators;
 mod topology;
 
-pub use assemble::{Degenerate, LaplacianKind, MassKind, Options};
+pub use assemble::{Boundary, Degenerate, LaplacianKind, MassKind, Options};
 pub use cached::{Mesh, Update};
 pub use csr::{Coo, Csr};
 pub use error::{Error, Result};
 pub use geometry::{local_tet, LocalTet};
 pub use mesh::{elements_from_i64, TetMesh, MAX_VERTICES};
 pub use operators::{edge_weights, laplacian, mass, operators, tet_contributions, triplets, Mass};
-pub use topology::{Incidence, Topology};
+pub use topology::{boundary_tets, Incidence, Topology};

@@ -27,6 +27,7 @@ pub struct TetMesh<'a> {
     points: &'a [f64],
     dim: usize,
     tets: &'a [[u32; 4]],
+    weights: Option<&'a [f64]>,
 }
 
 impl<'a> TetMesh<'a> {
@@ -34,12 +35,42 @@ impl<'a> TetMesh<'a> {
     pub fn new(points: &'a [f64], dim: usize, tets: &'a [[u32; 4]]) -> Result<Self> {
         let n = check_points(points, dim, 3)?;
         check_elements(tets, n)?;
-        Ok(TetMesh { points, dim, tets })
+        Ok(TetMesh { points, dim, tets, weights: None })
+    }
+
+    /// The same mesh with vertex weights (one finite real per vertex, in squared length
+    /// units): the dual Laplacian and circumcentric mass then use weighted circumcenters
+    /// (the orthogonal dual of a regular triangulation, a power diagram). Zero weights give
+    /// the plain circumcentric dual.
+    pub fn with_weights(self, weights: &'a [f64]) -> Result<Self> {
+        if weights.len() != self.n_vertices() {
+            return Err(Error::Shape {
+                message: format!(
+                    "weights must hold one value per vertex ({}), got {}",
+                    self.n_vertices(),
+                    weights.len()
+                ),
+            });
+        }
+        if let Some(i) = weights.iter().position(|w| !w.is_finite()) {
+            return Err(Error::NonFiniteWeight { vertex: i, value: weights[i] });
+        }
+        Ok(TetMesh { weights: Some(weights), ..self })
+    }
+
+    /// The vertex weights, if any.
+    pub fn weights(&self) -> Option<&'a [f64]> {
+        self.weights
     }
 
     /// A view of input that was checked before (same indices, new finite coordinates).
-    pub(crate) fn trusted(points: &'a [f64], dim: usize, tets: &'a [[u32; 4]]) -> Self {
-        TetMesh { points, dim, tets }
+    pub(crate) fn trusted(
+        points: &'a [f64],
+        dim: usize,
+        tets: &'a [[u32; 4]],
+        weights: Option<&'a [f64]>,
+    ) -> Self {
+        TetMesh { points, dim, tets, weights }
     }
 
     /// Number of vertices `n`.

@@ -2,7 +2,7 @@
 
 use crate::assemble::{
     check_kind, corner_mass, laplacian_values, mass_values, per_tet, run, weights,
-    weights_and_mass, LaplacianKind, MassKind, Options,
+    weights_and_mass, Elements, LaplacianKind, MassKind, Options,
 };
 use crate::csr::{Coo, Csr};
 use crate::error::Result;
@@ -64,7 +64,7 @@ pub fn laplacian(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<
     run(opts.threads, || {
         let (w, topo) = with_topology(mesh, || {
             let mut w = vec![[0.0; 6]; mesh.n_tets()];
-            per_tet(mesh, opts.degenerate, &mut w, |t| weights(t, kind)).map(|_| w)
+            per_tet(&Elements::new(*mesh, opts), opts.degenerate, &mut w, |t| weights(t, kind)).map(|_| w)
         })?;
         let data = laplacian_values(&topo, &w, None, vec![]);
         Ok(topo.into_csr(data))
@@ -85,7 +85,7 @@ pub fn mass(mesh: &TetMesh, kind: MassKind, opts: &Options) -> Result<Mass> {
     run(opts.threads, || {
         let (m, topo) = with_topology(mesh, || {
             let mut m = vec![[0.0; 4]; mesh.n_tets()];
-            per_tet(mesh, opts.degenerate, &mut m, |t| corner_mass(t, kind)).map(|_| m)
+            per_tet(&Elements::new(*mesh, opts), opts.degenerate, &mut m, |t| corner_mass(t, kind)).map(|_| m)
         })?;
         Ok(mass_from(&topo, kind, &m))
     })?
@@ -102,7 +102,7 @@ pub fn operators(
     run(opts.threads, || {
         let (wm, topo) = with_topology(mesh, || {
             let mut wm = vec![([0.0; 6], [0.0; 4]); mesh.n_tets()];
-            per_tet(mesh, opts.degenerate, &mut wm, |t| weights_and_mass(t, lap, mass))
+            per_tet(&Elements::new(*mesh, opts), opts.degenerate, &mut wm, |t| weights_and_mass(t, lap, mass))
                 .map(|_| wm)
         })?;
         let (w, m): (Vec<[f64; 6]>, Vec<[f64; 4]>) = wm.into_par_iter().unzip();
@@ -117,7 +117,7 @@ pub fn tet_contributions(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) ->
     check_kind(kind)?;
     run(opts.threads, || {
         let mut w = vec![[0.0; 6]; mesh.n_tets()];
-        per_tet(mesh, opts.degenerate, &mut w, |t| weights(t, kind)).map(|_| w)
+        per_tet(&Elements::new(*mesh, opts), opts.degenerate, &mut w, |t| weights(t, kind)).map(|_| w)
     })?
 }
 

@@ -148,6 +148,30 @@ impl Topology {
     }
 }
 
+/// Whether each tet has a face that no other tet shares (a boundary face).
+pub fn boundary_tets(tets: &[[u32; 4]]) -> Vec<bool> {
+    let mut keys: Vec<([u32; 3], u32)> = tets
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(t, tet)| {
+            OTHERS.iter().map(move |f| {
+                let mut face = f.map(|c| tet[c]);
+                face.sort_unstable();
+                (face, t as u32)
+            })
+        })
+        .collect();
+    keys.par_sort_unstable();
+    let mut boundary = vec![false; tets.len()];
+    for (k, &(face, t)) in keys.iter().enumerate() {
+        let shared = (k > 0 && keys[k - 1].0 == face) || keys.get(k + 1).is_some_and(|n| n.0 == face);
+        if !shared {
+            boundary[t as usize] = true;
+        }
+    }
+    boundary
+}
+
 /// Tet-corners per vertex by a counting sort (ascending corner ids within each vertex).
 fn corner_incidence(tets: &[[u32; 4]], n: usize) -> Incidence {
     let mut offsets = vec![0usize; n + 1];

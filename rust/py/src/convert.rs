@@ -1,17 +1,20 @@
 //! Inputs copied out of NumPy (with the GIL), outputs moved into NumPy without copying.
 
 use crate::errors::to_py;
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
-use tetlap::{Csr, Degenerate, LaplacianKind, MassKind, Options, TetMesh};
+use tetlap::{Boundary, Csr, Degenerate, LaplacianKind, MassKind, Options, TetMesh};
 
-/// Owned copies of the points and the validated `u32` tets.
+/// Owned copies of the points, the validated `u32` tets and the optional vertex weights.
 pub struct Input {
-    points: Vec<f64>,
-    dim: usize,
-    tets: Vec<[u32; 4]>,
+    pub points: Vec<f64>,
+    pub dim: usize,
+    pub tets: Vec<[u32; 4]>,
+    pub weights: Option<Vec<f64>>,
 }
 
 impl Input {
@@ -19,6 +22,7 @@ impl Input {
         py: Python<'_>,
         points: &PyReadonlyArray2<'_, f64>,
         tets: &PyReadonlyArray2<'_, i64>,
+        weights: Option<&PyReadonlyArray1<'_, f64>>,
     ) -> PyResult<Self> {
         let [n, dim] = [points.shape()[0], points.shape()[1]];
         if tets.shape()[1] != 4 {
@@ -27,17 +31,27 @@ impl Input {
         let points = points.as_array().iter().copied().collect::<Vec<f64>>();
         let flat = tets.as_array().iter().copied().collect::<Vec<i64>>();
         let tets = tetlap::elements_from_i64::<4>(&flat, n).map_err(|e| to_py(py, e))?;
-        Ok(Input { points, dim, tets })
+        let weights = weights.map(|w| w.as_array().iter().copied().collect());
+        Ok(Input { points, dim, tets, weights })
     }
 
-    /// The owned points, dimension and tets.
-    pub fn into_parts(self) -> (Vec<f64>, usize, Vec<[u32; 4]>) {
-        (self.points, self.dim, self.tets)
-    }
-
-    /// The validated mesh view (finiteness, dimensions, repeated vertices).
+    /// The validated mesh view (finiteness, dimensions, repeated vertices, weights).
     pub fn mesh(&self) -> tetlap::Result<TetMesh<'_>> {
-        TetMesh::new(&self.points, self.dim, &self.tets)
+        let mesh = TetMesh::new(&self.points, self.dim, &self.tets)?;
+        match &self.weights {
+            Some(w) => mesh.with_weights(w),
+            None => Ok(mesh),
+        }
+    }
+}
+
+/// The options tuple of the Python layer: `(threads, degenerate, boundary)`.
+#[derive(FromPyObject)]
+pub struct RawOptions(Option<usize>, String, String);
+
+impl Default for RawOptions {
+    fn default() -> Self {
+        RawOptions(None, "raise".into(), "circumcentric".into())
     }
 }
 
@@ -49,13 +63,8 @@ pub struct Spec {
 }
 
 impl Spec {
-    pub fn new(
-        _py: Python<'_>,
-        lap: Option<(&str, f64)>,
-        mass: Option<&str>,
-        threads: Option<usize>,
-        degenerate: &str,
-    ) -> PyResult<Self> {
+    pub fn new(lap: Option<(&str, f64)>, mass: Option<&str>, raw: &RawOptions) -> PyResult<Self> {
+        let RawOptions(threads, degenerate, boundary) = raw;
         let lap = lap
             .map(|(kind, t)| match kind {
                 "primal" => Ok(LaplacianKind::Primal),
@@ -72,12 +81,17 @@ impl Spec {
                 _ => Err(PyValueError::new_err(format!("unknown mass kind {kind:?}"))),
             })
             .transpose()?;
-        let degenerate = match degenerate {
+        let degenerate = match degenerate.as_str() {
             "raise" => Degenerate::Raise,
             "skip" => Degenerate::Skip,
             _ => return Err(PyValueError::new_err(format!("unknown degenerate policy {degenerate:?}"))),
         };
-        Ok(Spec { lap, mass, opts: Options { threads, degenerate } })
+        let boundary = match boundary.as_str() {
+            "circumcentric" => Boundary::Circumcentric,
+            "barycentric" => Boundary::Barycentric,
+            _ => return Err(PyValueError::new_err(format!("unknown boundary treatment {boundary:?}"))),
+        };
+        Ok(Spec { lap, mass, opts: Options { threads: *threads, degenerate, boundary } })
     }
 
     pub fn lap(&self) -> LaplacianKind {

@@ -11,7 +11,9 @@ pub fn to_py(py: Python<'_>, e: tetlap::Error) -> PyErr {
         let kwargs = PyDict::new(py);
         use tetlap::Error::*;
         match &e {
-            NonFiniteCoordinate { vertex, .. } => kwargs.set_item("vertex", vertex)?,
+            NonFiniteCoordinate { vertex, .. } | NonFiniteWeight { vertex, .. } => {
+                kwargs.set_item("vertex", vertex)?
+            }
             IndexOutOfRange { element, index, .. } => {
                 kwargs.set_item("element", element)?;
                 kwargs.set_item("index", index)?;

@@ -13,9 +13,9 @@ use pyo3::prelude::*;
 
 #[pymodule]
 mod _core {
-    use crate::convert::{csr_arrays, rows, Input, Spec};
+    use crate::convert::{csr_arrays, rows, Input, RawOptions, Spec};
     use crate::errors::guarded;
-    use numpy::{PyArray1, PyArray2, PyReadonlyArray2};
+    use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
     use pyo3::prelude::*;
     use pyo3::types::PyTuple;
     use tetlap::Mass;
@@ -25,58 +25,58 @@ mod _core {
 
     type Points<'py> = PyReadonlyArray2<'py, f64>;
     type Tets<'py> = PyReadonlyArray2<'py, i64>;
+    type Weights<'py> = Option<PyReadonlyArray1<'py, f64>>;
 
     /// Laplacian as CSR arrays `(data, indices, indptr)`.
     #[pyfunction]
-    #[pyo3(signature = (points, tets, kind, t, threads, degenerate))]
+    #[pyo3(signature = (points, tets, weights, kind, t, options))]
     fn laplacian<'py>(
         py: Python<'py>,
         points: Points<'py>,
         tets: Tets<'py>,
+        weights: Weights<'py>,
         kind: &str,
         t: f64,
-        threads: Option<usize>,
-        degenerate: &str,
+        options: RawOptions,
     ) -> PyResult<Bound<'py, PyTuple>> {
-        let input = Input::new(py, &points, &tets)?;
-        let spec = Spec::new(py, Some((kind, t)), None, threads, degenerate)?;
+        let input = Input::new(py, &points, &tets, weights.as_ref())?;
+        let spec = Spec::new(Some((kind, t)), None, &options)?;
         let l = guarded(py, move || tetlap::laplacian(&input.mesh()?, spec.lap(), &spec.opts))?;
         csr_arrays(py, l)
     }
 
     /// Mass matrix as `("lumped", diagonal)` or `("csr", (data, indices, indptr))`.
     #[pyfunction]
-    #[pyo3(signature = (points, tets, kind, threads, degenerate))]
+    #[pyo3(signature = (points, tets, weights, kind, options))]
     fn mass<'py>(
         py: Python<'py>,
         points: Points<'py>,
         tets: Tets<'py>,
+        weights: Weights<'py>,
         kind: &str,
-        threads: Option<usize>,
-        degenerate: &str,
+        options: RawOptions,
     ) -> PyResult<Bound<'py, PyTuple>> {
-        let input = Input::new(py, &points, &tets)?;
-        let spec = Spec::new(py, None, Some(kind), threads, degenerate)?;
+        let input = Input::new(py, &points, &tets, weights.as_ref())?;
+        let spec = Spec::new(None, Some(kind), &options)?;
         let m = guarded(py, move || tetlap::mass(&input.mesh()?, spec.mass(), &spec.opts))?;
         mass_arrays(py, m)
     }
 
     /// Laplacian and mass in one pass: `(laplacian_csr_arrays, mass_arrays)`.
     #[pyfunction]
-    #[pyo3(signature = (points, tets, kind, t, mass_kind, threads, degenerate))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (points, tets, weights, kind, t, mass_kind, options))]
     fn operators<'py>(
         py: Python<'py>,
         points: Points<'py>,
         tets: Tets<'py>,
+        weights: Weights<'py>,
         kind: &str,
         t: f64,
         mass_kind: &str,
-        threads: Option<usize>,
-        degenerate: &str,
+        options: RawOptions,
     ) -> PyResult<Bound<'py, PyTuple>> {
-        let input = Input::new(py, &points, &tets)?;
-        let spec = Spec::new(py, Some((kind, t)), Some(mass_kind), threads, degenerate)?;
+        let input = Input::new(py, &points, &tets, weights.as_ref())?;
+        let spec = Spec::new(Some((kind, t)), Some(mass_kind), &options)?;
         let (l, m) = guarded(py, move || {
             tetlap::operators(&input.mesh()?, spec.lap(), spec.mass(), &spec.opts)
         })?;
@@ -85,18 +85,18 @@ mod _core {
 
     /// Per-tet edge weights, `(m, 6)` float64.
     #[pyfunction]
-    #[pyo3(signature = (points, tets, kind, t, threads, degenerate))]
+    #[pyo3(signature = (points, tets, weights, kind, t, options))]
     fn tet_contributions<'py>(
         py: Python<'py>,
         points: Points<'py>,
         tets: Tets<'py>,
+        weights: Weights<'py>,
         kind: &str,
         t: f64,
-        threads: Option<usize>,
-        degenerate: &str,
+        options: RawOptions,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let input = Input::new(py, &points, &tets)?;
-        let spec = Spec::new(py, Some((kind, t)), None, threads, degenerate)?;
+        let input = Input::new(py, &points, &tets, weights.as_ref())?;
+        let spec = Spec::new(Some((kind, t)), None, &options)?;
         let w = guarded(py, move || {
             tetlap::tet_contributions(&input.mesh()?, spec.lap(), &spec.opts)
         })?;
@@ -105,18 +105,18 @@ mod _core {
 
     /// Unsummed triplets `(rows, cols, vals)`, 16 per tet.
     #[pyfunction]
-    #[pyo3(signature = (points, tets, kind, t, threads, degenerate))]
+    #[pyo3(signature = (points, tets, weights, kind, t, options))]
     fn triplets<'py>(
         py: Python<'py>,
         points: Points<'py>,
         tets: Tets<'py>,
+        weights: Weights<'py>,
         kind: &str,
         t: f64,
-        threads: Option<usize>,
-        degenerate: &str,
+        options: RawOptions,
     ) -> PyResult<Bound<'py, PyTuple>> {
-        let input = Input::new(py, &points, &tets)?;
-        let spec = Spec::new(py, Some((kind, t)), None, threads, degenerate)?;
+        let input = Input::new(py, &points, &tets, weights.as_ref())?;
+        let spec = Spec::new(Some((kind, t)), None, &options)?;
         let coo =
             guarded(py, move || tetlap::triplets(&input.mesh()?, spec.lap(), &spec.opts))?;
         let as_i64 = |v: Vec<u32>| v.into_iter().map(i64::from).collect::<Vec<_>>();
@@ -132,18 +132,18 @@ mod _core {
 
     /// Unique edges `(E, 2)` int64 and their summed weights `(E,)`.
     #[pyfunction]
-    #[pyo3(signature = (points, tets, kind, t, threads, degenerate))]
+    #[pyo3(signature = (points, tets, weights, kind, t, options))]
     fn edge_weights<'py>(
         py: Python<'py>,
         points: Points<'py>,
         tets: Tets<'py>,
+        weights: Weights<'py>,
         kind: &str,
         t: f64,
-        threads: Option<usize>,
-        degenerate: &str,
+        options: RawOptions,
     ) -> PyResult<Bound<'py, PyTuple>> {
-        let input = Input::new(py, &points, &tets)?;
-        let spec = Spec::new(py, Some((kind, t)), None, threads, degenerate)?;
+        let input = Input::new(py, &points, &tets, weights.as_ref())?;
+        let spec = Spec::new(Some((kind, t)), None, &options)?;
         let (edges, w) =
             guarded(py, move || tetlap::edge_weights(&input.mesh()?, spec.lap(), &spec.opts))?;
         let edges: Vec<[i64; 2]> = edges.into_iter().map(|e| e.map(i64::from)).collect();

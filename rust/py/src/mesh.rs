@@ -1,8 +1,10 @@
 //! `tetlap._core.Mesh`: the cached-topology mesh of the core, for `tetlap.Mesh`.
 
-use crate::convert::{indptr_array, Input, Spec};
+use crate::convert::{indptr_array, Input, RawOptions, Spec};
 use crate::errors::guarded;
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
@@ -15,18 +17,18 @@ pub struct PyMesh {
 #[pymethods]
 impl PyMesh {
     #[new]
-    #[pyo3(signature = (points, tets, threads, degenerate))]
+    #[pyo3(signature = (points, tets, weights, options))]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
         tets: PyReadonlyArray2<'_, i64>,
-        threads: Option<usize>,
-        degenerate: &str,
+        weights: Option<PyReadonlyArray1<'_, f64>>,
+        options: RawOptions,
     ) -> PyResult<Self> {
-        let input = Input::new(py, &points, &tets)?;
-        let spec = Spec::new(py, None, None, threads, degenerate)?;
-        let (points, dim, tets) = input.into_parts();
-        let inner = guarded(py, move || tetlap::Mesh::new(points, dim, tets, spec.opts))?;
+        let Input { points, dim, tets, weights } = Input::new(py, &points, &tets, weights.as_ref())?;
+        let opts = Spec::new(None, None, &options)?.opts;
+        let inner =
+            guarded(py, move || tetlap::Mesh::with_weights(points, dim, tets, weights, opts))?;
         Ok(PyMesh { inner })
     }
 
@@ -41,7 +43,7 @@ impl PyMesh {
 
     /// CSR data (a copy) of the Laplacian.
     fn laplacian<'py>(&mut self, py: Python<'py>, kind: &str, t: f64) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let lap = Spec::new(py, Some((kind, t)), None, None, "raise")?.lap();
+        let lap = Spec::new(Some((kind, t)), None, &RawOptions::default())?.lap();
         let inner = &mut self.inner;
         let values = guarded(py, move || inner.laplacian_values(lap).map(|v| v.to_vec()))?;
         Ok(PyArray1::from_vec(py, values))
@@ -49,7 +51,7 @@ impl PyMesh {
 
     /// Values (a copy) of the mass: per vertex, or CSR data for "fem".
     fn mass<'py>(&mut self, py: Python<'py>, kind: &str) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let mass = Spec::new(py, None, Some(kind), None, "raise")?.mass();
+        let mass = Spec::new(None, Some(kind), &RawOptions::default())?.mass();
         let inner = &mut self.inner;
         let values = guarded(py, move || inner.mass_values(mass).map(|v| v.to_vec()))?;
         Ok(PyArray1::from_vec(py, values))

@@ -5,10 +5,12 @@
 //! Sign convention (paper Eq. 1): a weight `w_ij` is the off-diagonal `L[i, j]`; positive on
 //! well-shaped tets.
 
+mod centers;
 mod dual;
 mod mass;
 mod primal;
 
+pub use centers::{dual_from_centers, Centers};
 pub use dual::{dual, Dual};
 pub use mass::{barycentric_mass, fem_mass};
 pub use primal::primal_weights;
