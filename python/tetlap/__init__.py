@@ -15,7 +15,7 @@ Sign convention (paper Eq. 1): ``L[i, j] = w_ij`` on edges, ``L[i, i] = -sum_j w
 ((64, 64), 1.0)
 """
 
-from . import diagnostics, meshes
+from . import diagnostics, meshes, solve
 from .cached import Mesh, UpdateInfo
 from .properties import Report, check
 from .errors import (
@@ -57,6 +57,7 @@ __all__ = [
     "Report",
     "meshes",
     "diagnostics",
+    "solve",
     "TetlapError",
     "ShapeError",
     "DtypeError",

@@ -12,7 +12,7 @@ import itertools
 
 import numpy as np
 
-__all__ = ["cube", "ball", "weighted_ball", "regular_triangulation", "single_tet", "orient"]
+__all__ = ["cube", "ball", "shell", "weighted_ball", "regular_triangulation", "single_tet", "orient"]
 
 
 def orient(V, T) -> np.ndarray:
@@ -115,6 +115,57 @@ def ball(n: int = 2000, *, seed: int = 0):
     V, _ = _ball_points(n, np.random.default_rng(seed))
     T = _drop_flat(V, Delaunay(V).simplices.astype(np.int64))
     return V, orient(V, T)
+
+
+def _shell_points(n: int, rng, radii=(0.5, 0.75, 1.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Points on the three spheres (Fibonacci lattices, density matched to the interior)
+    and uniform random points strictly between them; returns (V, sphere index or -1)."""
+    r0, r1 = radii[0], radii[-1]
+    volume = 4 / 3 * np.pi * (r1**3 - r0**3)
+    h = (volume / n) ** (1 / 3)  # mean spacing
+    counts = [max(12, int(4 * np.pi * r * r / (h * h) * 1.1)) for r in radii]
+    n_inside = max(n - sum(counts), 1)
+    direction = rng.normal(size=(n_inside, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    # uniform in volume, kept at least 0.3 h away from every sphere
+    radius = (rng.uniform(r0**3, r1**3, size=(4 * n_inside, 1))) ** (1 / 3)
+    far = np.min(np.abs(radius - np.array(radii)), axis=1) > 0.3 * h
+    radius = radius[far][:n_inside]
+    V = np.vstack([r * _fibonacci_sphere(c) for r, c in zip(radii, counts)] +
+                  [radius * direction[: len(radius)]])
+    label = np.concatenate([np.full(c, k) for k, c in enumerate(counts)] +
+                           [np.full(len(radius), -1)])
+    return V, label
+
+
+def shell(n: int = 4000, *, seed: int = 0, weight_scale: float = 0.0):
+    """Random (weighted) Delaunay mesh of the spherical shell ``0.5 <= r <= 1`` with an
+    interior sphere at ``r = 0.75`` (paper Sec. 8.1, Eq. 28).
+
+    Vertices lie exactly (to rounding) on the three spheres; the rest are uniform in the
+    shell, at least 0.3 mean spacings from the spheres. The tets are the Delaunay (or, for
+    ``weight_scale > 0``, a regular triangulation with random interior weights as in
+    :func:`weighted_ball`) of all points, minus those inside the inner sphere.
+
+    Returns ``V, T, spheres`` with ``spheres`` (n,) int8: 0, 1, 2 for the vertices on the
+    spheres of radius 0.5, 0.75, 1, and -1 for the others.
+
+    Example
+    -------
+    >>> V, T, spheres = shell(2000, seed=1)
+    >>> r = np.linalg.norm(V[spheres == 1], axis=1)
+    >>> bool(np.allclose(r, 0.75, rtol=1e-14))
+    True
+    """
+    rng = np.random.default_rng(seed)
+    V, label = _shell_points(n, rng)
+    h = (4 / 3 * np.pi * (1 - 0.125) / n) ** (1 / 3)
+    w = rng.uniform(0, weight_scale * h * h, size=len(V))
+    w[label >= 0] = 0
+    T = regular_triangulation(V, w)
+    inner = label[T] == 0
+    T = T[~inner.all(axis=1)]
+    return V, T, label.astype(np.int8)
 
 
 def regular_triangulation(V, weights) -> np.ndarray:
