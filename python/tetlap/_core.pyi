@@ -32,6 +32,8 @@ def triplets(points: _F64, tets: _Tets, weights: _Weights, kind: str, t: float,
 def edge_weights(points: _F64, tets: _Tets, weights: _Weights, kind: str, t: float,
                  options: _Options) -> tuple[npt.NDArray[np.int64], _F64]: ...
 
+def _panic_inside_guard(message: str) -> None: ...  # test hook: raises InternalError
+
 class Mesh:
     def __init__(self, points: _F64, tets: _Tets, weights: _Weights,
                  options: _Options) -> None: ...

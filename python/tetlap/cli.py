@@ -45,6 +45,8 @@ def info(V, T, *, nsd: bool = True) -> dict:
         "n_positive_tets": None if orientation is None else int((orientation > 0).sum()),
         "n_negative_tets": None if orientation is None else int((orientation < 0).sum()),
         "n_degenerate_tets": int(diagnostics.degenerate_tets(V, T).sum()),
+        "n_duplicate_tets": int(diagnostics.duplicate_tets(T).sum()),
+        "n_nonmanifold_faces": int(len(diagnostics.nonmanifold_faces(T))),
     }
     if V.shape[1] == 3:
         flags = diagnostics.non_delaunay_faces(V, T)
@@ -99,7 +101,8 @@ def _print_info(result: dict, source: str) -> None:
     print(f"{result['n_vertices']} vertices ({result['n_boundary_vertices']} on the boundary, "
           f"{result['n_unreferenced_vertices']} unreferenced), {result['n_tets']} tets "
           f"({result['n_positive_tets']} positive, {result['n_negative_tets']} negative, "
-          f"{result['n_degenerate_tets']} degenerate)")
+          f"{result['n_degenerate_tets']} degenerate, {result['n_duplicate_tets']} duplicate; "
+          f"{result['n_nonmanifold_faces']} non-manifold faces)")
     if result["non_delaunay_face_fraction"] is not None:
         print(f"non-Delaunay interior faces: {100 * result['non_delaunay_face_fraction']:.2f}% "
               f"of {result['n_interior_faces']} (tets: "

@@ -19,6 +19,8 @@ __all__ = [
     "non_delaunay_faces",
     "non_delaunay_tets",
     "well_centered",
+    "duplicate_tets",
+    "nonmanifold_faces",
     "DELAUNAY_RTOL",
     "boundary_faces",
     "boundary_vertices",
@@ -217,3 +219,19 @@ def well_centered(V, T) -> np.ndarray:
                 d = np.einsum("ij,ij->i", X[:, others[i]] - X[:, a], X[:, others[j]] - X[:, a])
                 inside &= d > 0
     return inside
+
+
+def duplicate_tets(T) -> np.ndarray:
+    """Boolean (m,): tets whose vertex set appeared in an earlier row (any order)."""
+    S = np.sort(np.asarray(T, dtype=np.int64), axis=1)
+    _, first = np.unique(S, axis=0, return_index=True)
+    dup = np.ones(len(S), dtype=bool)
+    dup[first] = False
+    return dup
+
+
+def nonmanifold_faces(T) -> np.ndarray:
+    """Faces shared by more than two tets, (f, 3) sorted vertex triples."""
+    F = np.sort(faces(T), axis=1)
+    keys, counts = np.unique(F, axis=0, return_counts=True)
+    return keys[counts > 2]

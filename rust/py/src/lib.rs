@@ -150,6 +150,13 @@ mod _core {
         PyTuple::new(py, [rows(py, edges)?.into_any(), PyArray1::from_vec(py, w).into_any()])
     }
 
+    /// Test hook: a panic inside the guarded region, which must surface as
+    /// `tetlap.errors.InternalError` (never as `PanicException`).
+    #[pyfunction]
+    fn _panic_inside_guard(py: Python<'_>, message: String) -> PyResult<()> {
+        guarded(py, move || -> tetlap::Result<()> { panic!("{message}") })
+    }
+
     fn mass_arrays<'py>(py: Python<'py>, m: Mass) -> PyResult<Bound<'py, PyTuple>> {
         match m {
             Mass::Lumped(d) => {
