@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{local_tet, LocalTet};
 use crate::local;
 use crate::mesh::TetMesh;
-use crate::topology::{boundary_tets, groups_mut, Topology, OTHERS};
+use crate::topology::{boundary_tets, groups_mut, Incidence, Rows, Topology, OTHERS};
 use rayon::prelude::*;
 use std::borrow::Cow;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -69,12 +69,10 @@ pub struct Options {
     pub boundary: Boundary,
 }
 
-/// Why one tet could not be evaluated.
+/// One tet could not be evaluated (zero volume, or a non-finite value; see
+/// [`Elements::fault_error`] for which).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Fault {
-    ZeroVolume,
-    NonFinite,
-}
+pub(crate) struct Fault;
 
 /// Validates the affine parameter.
 pub(crate) fn check_kind(kind: LaplacianKind) -> Result<()> {
@@ -110,16 +108,21 @@ pub(crate) struct Element {
     pub frame: LocalTet,
     pub weights: Option<[f64; 4]>,
     pub fix_boundary: bool,
+    /// The dual, computed once however many operators ask for it.
+    dual: std::cell::OnceCell<local::Dual>,
 }
 
 impl Element {
     fn dual(&self) -> local::Dual {
-        if self.weights.is_none() && !self.fix_boundary {
-            return local::dual(&self.frame);
-        }
-        let centers = local::Centers::weighted(&self.frame, self.weights.unwrap_or([0.0; 4]));
-        let centers = if self.fix_boundary { centers.clamp_to_centroids(&self.frame) } else { centers };
-        local::dual_from_centers(&self.frame, &centers)
+        *self.dual.get_or_init(|| {
+            if self.weights.is_none() && !self.fix_boundary {
+                return local::dual(&self.frame);
+            }
+            let centers = local::Centers::weighted(&self.frame, self.weights.unwrap_or([0.0; 4]));
+            let centers =
+                if self.fix_boundary { centers.clamp_to_centroids(&self.frame) } else { centers };
+            local::dual_from_centers(&self.frame, &centers)
+        })
     }
 }
 
@@ -139,14 +142,24 @@ impl<'a> Elements<'a> {
         Elements { mesh, boundary: boundary.map(Cow::Borrowed) }
     }
 
-    fn get(&self, t: usize, scratch: &mut [f64]) -> Element {
+    pub fn get(&self, t: usize, scratch: &mut [f64]) -> Element {
         let mesh = &self.mesh;
         let tet = mesh.tets()[t];
         let frame = local_tet(tet.map(|v| mesh.point(v)), scratch);
         let s2 = frame.scale * frame.scale;
         let weights = mesh.weights().map(|w| tet.map(|v| (w[v as usize] - w[tet[0] as usize]) / s2));
         let fix_boundary = self.boundary.as_ref().is_some_and(|b| b[t]);
-        Element { frame, weights, fix_boundary }
+        Element { frame, weights, fix_boundary, dual: Default::default() }
+    }
+
+    /// The error for tet `t`, known to fail: zero volume or a non-finite value.
+    pub fn fault_error(&self, t: usize) -> Error {
+        let el = self.get(t, &mut vec![0.0; self.scratch_len()]);
+        if local::is_degenerate(&el.frame) {
+            Error::Degenerate { element: t }
+        } else {
+            Error::NonFiniteResult { element: t }
+        }
     }
 
     fn scratch_len(&self) -> usize {
@@ -158,7 +171,7 @@ fn finite<const K: usize>(v: [f64; K]) -> std::result::Result<[f64; K], Fault> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(v)
     } else {
-        Err(Fault::NonFinite)
+        Err(Fault)
     }
 }
 
@@ -166,7 +179,7 @@ fn finite<const K: usize>(v: [f64; K]) -> std::result::Result<[f64; K], Fault> {
 pub(crate) fn weights(el: &Element, kind: LaplacianKind) -> std::result::Result<[f64; 6], Fault> {
     let t = &el.frame;
     if local::is_degenerate(t) {
-        return Err(Fault::ZeroVolume);
+        return Err(Fault);
     }
     finite(match kind {
         LaplacianKind::Primal => local::primal_weights(t),
@@ -183,7 +196,7 @@ pub(crate) fn weights(el: &Element, kind: LaplacianKind) -> std::result::Result<
 pub(crate) fn corner_mass(el: &Element, kind: MassKind) -> std::result::Result<[f64; 4], Fault> {
     let t = &el.frame;
     if local::is_degenerate(t) {
-        return Err(Fault::ZeroVolume);
+        return Err(Fault);
     }
     finite(match kind {
         MassKind::Barycentric => local::barycentric_mass(t),
@@ -192,42 +205,65 @@ pub(crate) fn corner_mass(el: &Element, kind: MassKind) -> std::result::Result<[
     })
 }
 
-/// Weights and corner masses of one tet, sharing the dual construction when both need it.
+/// Weights and corner masses of one tet (the dual, if both need it, is computed once).
 pub(crate) fn weights_and_mass(
     el: &Element,
     lap: LaplacianKind,
     mass: MassKind,
 ) -> std::result::Result<([f64; 6], [f64; 4]), Fault> {
-    if lap == LaplacianKind::Dual && mass == MassKind::Circumcentric && !local::is_degenerate(&el.frame) {
-        let d = el.dual();
-        return Ok((finite(d.weights)?, finite(d.cell_volumes)?));
-    }
     Ok((weights(el, lap)?, corner_mass(el, mass)?))
 }
 
-/// The parallel per-tet pass: `f` of every tet into its own slot of `out`.
+/// The parallel per-tet pass: `f` of every tet, handed to `store` with the tet's own
+/// output slot (`slots` yields one per tet, in order).
 ///
 /// A tet for which `f` fails gets `T::default()` under [`Degenerate::Skip`]; under
 /// [`Degenerate::Raise`] the first such tet (lowest index, whatever the scheduling) is
 /// reported.
+fn pass<T: Default, S: Send>(
+    elements: &Elements,
+    degenerate: Degenerate,
+    slots: impl IndexedParallelIterator<Item = S>,
+    f: impl Fn(&Element) -> std::result::Result<T, Fault> + Sync,
+    store: impl Fn(S, T) + Sync,
+) -> Result<()> {
+    let first_fault = AtomicUsize::new(usize::MAX);
+    slots.enumerate().for_each_init(
+        || vec![0.0; elements.scratch_len()],
+        |scratch, (t, slot)| match f(&elements.get(t, scratch)) {
+            Ok(v) => store(slot, v),
+            Err(_) => {
+                store(slot, T::default());
+                first_fault.fetch_min(t, Ordering::Relaxed);
+            }
+        },
+    );
+    fault_to_error(elements, degenerate, first_fault.into_inner())
+}
+
+/// [`pass`] into one output slot per tet.
 pub(crate) fn per_tet<T: Copy + Default + Send + Sync>(
     elements: &Elements,
     degenerate: Degenerate,
     out: &mut [T],
     f: impl Fn(&Element) -> std::result::Result<T, Fault> + Sync,
 ) -> Result<()> {
-    let first_fault = AtomicUsize::new(usize::MAX);
-    out.par_iter_mut().enumerate().for_each_init(
-        || vec![0.0; elements.scratch_len()],
-        |scratch, (t, slot)| match f(&elements.get(t, scratch)) {
-            Ok(v) => *slot = v,
-            Err(_) => {
-                *slot = T::default();
-                first_fault.fetch_min(t, Ordering::Relaxed);
-            }
-        },
-    );
-    fault_to_error(elements, degenerate, first_fault.into_inner(), &f)
+    pass(elements, degenerate, out.par_iter_mut(), f, |slot, v| *slot = v)
+}
+
+/// [`pass`] into two output slots per tet (weights and corner masses in one pass).
+pub(crate) fn per_tet_pair<A: Copy + Default + Send + Sync, B: Copy + Default + Send + Sync>(
+    elements: &Elements,
+    degenerate: Degenerate,
+    a: &mut [A],
+    b: &mut [B],
+    f: impl Fn(&Element) -> std::result::Result<(A, B), Fault> + Sync,
+) -> Result<()> {
+    let slots = a.par_iter_mut().zip(b.par_iter_mut());
+    pass(elements, degenerate, slots, f, |(x, y), (u, v)| {
+        *x = u;
+        *y = v;
+    })
 }
 
 /// [`per_tet`] for the listed tets only: their values, in the order of `tets`.
@@ -244,34 +280,49 @@ pub(crate) fn per_tet_subset<T: Copy + Default + Send + Sync>(
         })
         .collect();
     let first = tets.iter().zip(&results).filter(|(_, r)| r.is_err()).map(|(&t, _)| t as usize).min();
-    fault_to_error(elements, degenerate, first.unwrap_or(usize::MAX), &f)?;
+    fault_to_error(elements, degenerate, first.unwrap_or(usize::MAX))?;
     Ok(results.into_iter().map(|r| r.unwrap_or_default()).collect())
 }
 
 /// The error for the first failing tet `t` (`usize::MAX`: none) under the policy.
-fn fault_to_error<T>(
-    elements: &Elements,
-    degenerate: Degenerate,
-    t: usize,
-    f: impl Fn(&Element) -> std::result::Result<T, Fault>,
-) -> Result<()> {
+fn fault_to_error(elements: &Elements, degenerate: Degenerate, t: usize) -> Result<()> {
     if t == usize::MAX || degenerate == Degenerate::Skip {
         return Ok(());
     }
-    Err(match f(&elements.get(t, &mut vec![0.0; elements.scratch_len()])) {
-        Err(Fault::ZeroVolume) => Error::Degenerate { element: t },
-        _ => Error::NonFiniteResult { element: t },
-    })
+    Err(elements.fault_error(t))
 }
 
 /// Local edge index of corners `(a, b)`, `a != b`.
 const EDGE_OF: [[usize; 4]; 4] = [[6, 0, 1, 2], [0, 6, 3, 4], [1, 3, 6, 5], [2, 4, 5, 6]];
 
 
+/// Fills one row of an operator: entry `(i, j)` is the sum, over the tets around `i` in
+/// ascending order (`items`, with the row positions `slots` of their other corners), of
+/// `edge(t, e)` for their local edge `e = (i, j)`; the diagonal (at `diag`) is
+/// `diagonal(s)` with `s` the row's off-diagonal sum in column order. Every assembly path
+/// (one-shot, cached, update) goes through here, hence their bitwise agreement.
+#[inline]
+fn fill_row(
+    row: &mut [f64],
+    items: &[u32],
+    slots: &[[u32; 3]],
+    diag: usize,
+    edge: &impl Fn(usize, usize) -> f64,
+    diagonal: impl FnOnce(f64) -> f64,
+) {
+    row.fill(0.0);
+    for (&corner, slot) in items.iter().zip(slots) {
+        let (t, c) = (corner as usize / 4, corner as usize % 4);
+        for (&o, &k) in OTHERS[c].iter().zip(slot) {
+            row[k as usize] += edge(t, EDGE_OF[c][o]);
+        }
+    }
+    let sum: f64 = row.iter().sum();
+    row[diag] = diagonal(sum);
+}
+
 /// Writes rows `rows` (all rows when `None`) of an operator on the topology's pattern into
-/// `data`: entry `(i, j)` is the sum, over the tets around `i` in ascending order, of
-/// `edge(t, e)` for their local edge `e = (i, j)`; the diagonal is `diagonal(i, s)` with `s`
-/// the row's off-diagonal sum in column order.
+/// `data`, by [`fill_row`] with `diagonal(i, off-diagonal sum)`.
 pub(crate) fn gather_rows(
     topo: &Topology,
     data: &mut [f64],
@@ -280,17 +331,9 @@ pub(crate) fn gather_rows(
     diagonal: impl Fn(usize, f64) -> f64 + Sync,
 ) {
     let fill = |i: usize, row: &mut [f64]| {
-        row.fill(0.0);
-        let first = topo.corners.offsets[i];
-        for (k, &corner) in topo.corners.of(i).iter().enumerate() {
-            let (t, c) = (corner as usize / 4, corner as usize % 4);
-            for (&o, &slot) in OTHERS[c].iter().zip(&topo.corner_slots[first + k]) {
-                row[slot as usize] += edge(t, EDGE_OF[c][o]);
-            }
-        }
-        let diag = topo.diagonal[i] as usize;
-        let sum: f64 = row.iter().sum();
-        row[diag] = diagonal(i, sum);
+        let range = topo.corners.offsets[i]..topo.corners.offsets[i + 1];
+        let (items, slots) = (&topo.corners.items[range.clone()], &topo.corner_slots[range]);
+        fill_row(row, items, slots, topo.diagonal[i] as usize, &edge, |s| diagonal(i, s));
     };
     match rows {
         None => groups_mut(data, &topo.indptr)
@@ -306,11 +349,54 @@ pub(crate) fn gather_rows(
     }
 }
 
-/// Sum over the tets around every vertex (ascending) of `corner(t, c)`.
-pub(crate) fn gather_vertices(topo: &Topology, corner: impl Fn(usize, usize) -> f64 + Sync) -> Vec<f64> {
-    (0..topo.n)
+/// The rows of `data` if present, else one `None` per row.
+fn optional_rows<'a>(data: &'a mut Option<Vec<f64>>, indptr: &[usize]) -> Vec<Option<&'a mut [f64]>> {
+    match data {
+        Some(d) => groups_mut(d, indptr).into_iter().map(Some).collect(),
+        None => (0..indptr.len() - 1).map(|_| None).collect(),
+    }
+}
+
+/// One-shot assembly without storing the slot map: every row is built from its tets and
+/// filled at once. Returns the column indices and, if asked, the Laplacian's values (from
+/// per-tet weights) and the consistent mass's values (from per-tet volumes in `vol[t][0]`).
+pub(crate) fn assemble_rows(
+    rows: &Rows,
+    w: Option<&[[f64; 6]]>,
+    vol: Option<&[[f64; 4]]>,
+) -> (Vec<u32>, Option<Vec<f64>>, Option<Vec<f64>>) {
+    let nnz = rows.nnz();
+    let mut indices = vec![0u32; nnz];
+    let mut lap = w.map(|_| vec![0.0; nnz]);
+    let mut fem = vol.map(|_| vec![0.0; nnz]);
+    let (lap_rows, fem_rows) = (optional_rows(&mut lap, &rows.indptr), optional_rows(&mut fem, &rows.indptr));
+    groups_mut(&mut indices, &rows.indptr)
         .into_par_iter()
-        .map(|i| topo.corners.of(i).iter().map(|&k| corner(k as usize / 4, k as usize % 4)).sum())
+        .zip(lap_rows)
+        .zip(fem_rows)
+        .enumerate()
+        .for_each(|(i, ((cols, lap_row), fem_row))| {
+            let items = rows.corners.of(i);
+            rows.build(i, |row| {
+                cols.copy_from_slice(row.cols);
+                let diag = row.diagonal as usize;
+                if let (Some(out), Some(w)) = (lap_row, w) {
+                    fill_row(out, items, row.slots, diag, &|t, e| w[t][e], |s| -s);
+                }
+                if let (Some(out), Some(vol)) = (fem_row, vol) {
+                    let d: f64 = items.iter().map(|&k| vol[k as usize / 4][0] / 10.0).sum();
+                    fill_row(out, items, row.slots, diag, &|t, _| vol[t][0] / 20.0, |_| d);
+                }
+            })
+        });
+    (indices, lap, fem)
+}
+
+/// Sum over the tets around every vertex (ascending) of `corner(t, c)`.
+pub(crate) fn gather_vertices(corners: &Incidence, corner: impl Fn(usize, usize) -> f64 + Sync) -> Vec<f64> {
+    (0..corners.offsets.len() - 1)
+        .into_par_iter()
+        .map(|i| corners.of(i).iter().map(|&k| corner(k as usize / 4, k as usize % 4)).sum())
         .collect()
 }
 
@@ -339,7 +425,7 @@ pub(crate) fn mass_values(
             gather_rows(topo, &mut values, rows, |t, _| m[t][0] / 20.0, diagonal);
             values
         }
-        (_, None) => gather_vertices(topo, |t, c| m[t][c]),
+        (_, None) => gather_vertices(&topo.corners, |t, c| m[t][c]),
         (_, Some(rows)) => {
             for &i in rows {
                 values[i as usize] = vertex(i as usize, &|t, c| m[t][c]);

@@ -3,13 +3,15 @@
 
 use crate::assemble::{
     check_kind, corner_mass, laplacian_values, mass_values, per_tet, per_tet_subset, run,
-    boundary_mask, weights, Element, Elements, Fault, LaplacianKind, MassKind, Options,
+    boundary_mask, weights, Degenerate, Element, Elements, Fault, LaplacianKind, MassKind,
+    Options,
 };
 use crate::csr::Csr;
 use crate::error::{Error, Result};
 use crate::mesh::{check_points, TetMesh};
 use crate::operators::Mass;
 use crate::topology::Topology;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use rayon::prelude::*;
 
 /// One cached operator: its per-tet values and its assembled values.
@@ -213,8 +215,11 @@ impl Mesh {
         let new = self.elements(points);
         let opts = self.opts;
         let (laplacians, masses) = run(opts.threads, || -> Result<_> {
-            let l = recompute(&new, opts, &tets, full, &self.laplacians, |t, k| weights(t, k))?;
-            let m = recompute(&new, opts, &tets, full, &self.masses, |t, k| corner_mass(t, k))?;
+            if full {
+                return self.recompute_all(&new);
+            }
+            let l = recompute(&new, opts, &tets, &self.laplacians, |t, k| weights(t, k))?;
+            let m = recompute(&new, opts, &tets, &self.masses, |t, k| corner_mass(t, k))?;
             Ok((l, m))
         })??;
         // Nothing failed: commit.
@@ -241,26 +246,75 @@ impl Mesh {
     }
 }
 
-/// New per-tet values of every cached operator: all tets (`full`) or the listed ones.
+impl Mesh {
+    /// Per-tet values of every cached operator for all tets, in one pass over the tets
+    /// (each tet's frame and dual are computed once for all of them).
+    fn recompute_all(&self, elements: &Elements) -> Result<(Vec<Vec<[f64; 6]>>, Vec<Vec<[f64; 4]>>)> {
+        let m = self.tets.len();
+        let n_chunks = m.div_ceil(CHUNK);
+        let mut l_new: Vec<Vec<[f64; 6]>> = self.laplacians.iter().map(|_| vec![[0.0; 6]; m]).collect();
+        let mut m_new: Vec<Vec<[f64; 4]>> = self.masses.iter().map(|_| vec![[0.0; 4]; m]).collect();
+        let (l_kinds, m_kinds): (Vec<_>, Vec<_>) = (
+            self.laplacians.iter().map(|c| c.kind).collect(),
+            self.masses.iter().map(|c| c.kind).collect(),
+        );
+        let first_fault = AtomicUsize::new(usize::MAX);
+        // a failing tet keeps the zeros of the fresh buffer (the Skip policy)
+        fn store<T>(fault: &AtomicUsize, t: usize, out: &mut [T], k: usize, r: std::result::Result<T, Fault>) {
+            match r {
+                Ok(v) => out[k] = v,
+                Err(_) => {
+                    fault.fetch_min(t, Ordering::Relaxed);
+                }
+            }
+        }
+        let work = chunked(&mut l_new, n_chunks).into_par_iter().zip(chunked(&mut m_new, n_chunks));
+        work.enumerate().for_each_init(
+            || vec![0.0; 3 * self.dim],
+            |scratch, (c, (mut ls, mut ms))| {
+                for k in 0..CHUNK.min(m - c * CHUNK) {
+                    let t = c * CHUNK + k;
+                    let el = elements.get(t, scratch);
+                    for (out, &kind) in ls.iter_mut().zip(&l_kinds) {
+                        store(&first_fault, t, out, k, weights(&el, kind));
+                    }
+                    for (out, &kind) in ms.iter_mut().zip(&m_kinds) {
+                        store(&first_fault, t, out, k, corner_mass(&el, kind));
+                    }
+                }
+            },
+        );
+        let t = first_fault.into_inner();
+        if t != usize::MAX && self.opts.degenerate == Degenerate::Raise {
+            return Err(elements.fault_error(t));
+        }
+        Ok((l_new, m_new))
+    }
+}
+
+/// New per-tet values of every cached operator for the listed tets.
 fn recompute<K: Copy + Sync, T: Copy + Default + Send + Sync>(
     elements: &Elements,
     opts: Options,
     tets: &[u32],
-    full: bool,
     cached: &[Cached<K, T>],
     f: impl Fn(&Element, K) -> std::result::Result<T, Fault> + Sync,
 ) -> Result<Vec<Vec<T>>> {
-    cached
-        .iter()
-        .map(|c| {
-            if full {
-                let mut all = vec![T::default(); c.per_tet.len()];
-                per_tet(elements, opts.degenerate, &mut all, |t| f(t, c.kind)).map(|_| all)
-            } else {
-                per_tet_subset(elements, opts.degenerate, tets, |t| f(t, c.kind))
-            }
-        })
-        .collect()
+    cached.iter().map(|c| per_tet_subset(elements, opts.degenerate, tets, |t| f(t, c.kind))).collect()
+}
+
+/// Tets per work item of [`Mesh::recompute_all`].
+const CHUNK: usize = 2048;
+
+/// `v`'s chunks of [`CHUNK`] tets, appended to the per-chunk lists.
+fn chunked<'a, T>(caches: &'a mut [Vec<T>], n_chunks: usize) -> Vec<Vec<&'a mut [T]>> {
+    let mut chunks: Vec<Vec<&mut [T]>> = (0..n_chunks).map(|_| Vec::new()).collect();
+    for v in caches.iter_mut() {
+        for (c, part) in v.chunks_mut(CHUNK).enumerate() {
+            chunks[c].push(part);
+        }
+    }
+    chunks
 }
 
 fn commit<T: Copy>(per_tet: &mut Vec<T>, tets: &[u32], new: Vec<T>) {

@@ -1,14 +1,14 @@
 //! The public one-shot API: validated mesh in, CSR / triplets / per-tet values out.
 
 use crate::assemble::{
-    check_kind, corner_mass, laplacian_values, mass_values, per_tet, run, weights,
+    assemble_rows, check_kind, corner_mass, gather_vertices, per_tet, per_tet_pair, run, weights,
     weights_and_mass, Elements, LaplacianKind, MassKind, Options,
 };
 use crate::csr::{Coo, Csr};
 use crate::error::Result;
 use crate::local::EDGES;
 use crate::mesh::TetMesh;
-use crate::topology::Topology;
+use crate::topology::Rows;
 use rayon::prelude::*;
 
 /// A mass matrix: lumped (a diagonal, one value per vertex) or consistent (sparse).
@@ -30,22 +30,38 @@ impl Mass {
     }
 }
 
-/// The mass of `kind` from per-tet corner masses (volumes for [`MassKind::Fem`]).
-pub(crate) fn mass_from(topo: &Topology, kind: MassKind, m: &[[f64; 4]]) -> Mass {
-    let values = mass_values(topo, kind, m, None, vec![]);
-    match kind {
-        MassKind::Fem => Mass::Consistent(topo.to_csr(values)),
-        _ => Mass::Lumped(values),
-    }
+/// Per-tet pass and row layout, side by side.
+fn with_rows<'a, T: Send>(
+    mesh: &TetMesh<'a>,
+    pass: impl FnOnce() -> Result<T> + Send,
+) -> Result<(T, Rows<'a>)> {
+    let (values, rows) = rayon::join(pass, || Rows::new(mesh.tets(), mesh.n_vertices()));
+    Ok((values?, rows?))
 }
 
-/// Per-tet pass and topology, side by side.
-fn with_topology<T: Send>(
-    mesh: &TetMesh,
-    pass: impl FnOnce() -> Result<T> + Send,
-) -> Result<(T, Topology)> {
-    let (values, topo) = rayon::join(pass, || Topology::new(mesh.tets(), mesh.n_vertices()));
-    Ok((values?, topo?))
+fn csr(rows: Rows, indices: Vec<u32>, data: Vec<f64>) -> Csr {
+    Csr { n: rows.indptr.len() - 1, indptr: rows.indptr, indices, data }
+}
+
+/// One-shot assembly of the requested operators from per-tet values.
+fn assemble(
+    rows: Rows,
+    w: Option<&[[f64; 6]]>,
+    mass: Option<(MassKind, &[[f64; 4]])>,
+) -> (Option<Csr>, Option<Mass>) {
+    let fem = mass.and_then(|(kind, m)| (kind == MassKind::Fem).then_some(m));
+    let lumped = mass
+        .filter(|(kind, _)| *kind != MassKind::Fem)
+        .map(|(_, m)| Mass::Lumped(gather_vertices(&rows.corners, |t, c| m[t][c])));
+    let (indices, lap, fem) = assemble_rows(&rows, w, fem);
+    let laplacian = lap.map(|data| Csr {
+        n: rows.indptr.len() - 1,
+        indptr: rows.indptr.clone(),
+        indices: indices.clone(),
+        data,
+    });
+    let mass = lumped.or_else(|| fem.map(|data| Mass::Consistent(csr(rows, indices, data))));
+    (laplacian, mass)
 }
 
 /// The `n x n` Laplacian: `L[i,j] = w_ij` on edges, `L[i,i] = -sum_j w_ij`; rows sum to
@@ -62,12 +78,11 @@ fn with_topology<T: Send>(
 pub fn laplacian(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<Csr> {
     check_kind(kind)?;
     run(opts.threads, || {
-        let (w, topo) = with_topology(mesh, || {
+        let (w, rows) = with_rows(mesh, || {
             let mut w = vec![[0.0; 6]; mesh.n_tets()];
             per_tet(&Elements::new(*mesh, opts), opts.degenerate, &mut w, |t| weights(t, kind)).map(|_| w)
         })?;
-        let data = laplacian_values(&topo, &w, None, vec![]);
-        Ok(topo.into_csr(data))
+        Ok(assemble(rows, Some(&w), None).0.expect("a Laplacian was asked for"))
     })?
 }
 
@@ -83,11 +98,11 @@ pub fn laplacian(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<
 /// ```
 pub fn mass(mesh: &TetMesh, kind: MassKind, opts: &Options) -> Result<Mass> {
     run(opts.threads, || {
-        let (m, topo) = with_topology(mesh, || {
+        let (m, rows) = with_rows(mesh, || {
             let mut m = vec![[0.0; 4]; mesh.n_tets()];
             per_tet(&Elements::new(*mesh, opts), opts.degenerate, &mut m, |t| corner_mass(t, kind)).map(|_| m)
         })?;
-        Ok(mass_from(&topo, kind, &m))
+        Ok(assemble(rows, None, Some((kind, &m))).1.expect("a mass was asked for"))
     })?
 }
 
@@ -100,15 +115,15 @@ pub fn operators(
 ) -> Result<(Csr, Mass)> {
     check_kind(lap)?;
     run(opts.threads, || {
-        let (wm, topo) = with_topology(mesh, || {
-            let mut wm = vec![([0.0; 6], [0.0; 4]); mesh.n_tets()];
-            per_tet(&Elements::new(*mesh, opts), opts.degenerate, &mut wm, |t| weights_and_mass(t, lap, mass))
-                .map(|_| wm)
+        let ((w, m), rows) = with_rows(mesh, || {
+            let (mut w, mut m) = (vec![[0.0; 6]; mesh.n_tets()], vec![[0.0; 4]; mesh.n_tets()]);
+            per_tet_pair(&Elements::new(*mesh, opts), opts.degenerate, &mut w, &mut m, |t| {
+                weights_and_mass(t, lap, mass)
+            })
+            .map(|_| (w, m))
         })?;
-        let (w, m): (Vec<[f64; 6]>, Vec<[f64; 4]>) = wm.into_par_iter().unzip();
-        let mass = mass_from(&topo, mass, &m);
-        let data = laplacian_values(&topo, &w, None, vec![]);
-        Ok((topo.into_csr(data), mass))
+        let (l, m) = assemble(rows, Some(&w), Some((mass, &m)));
+        Ok((l.expect("a Laplacian was asked for"), m.expect("a mass was asked for")))
     })?
 }
 

@@ -63,60 +63,23 @@ impl Topology {
     /// Builds the topology of `tets` over `n` vertices (indices must be `< n`, as
     /// [`crate::TetMesh`] guarantees).
     pub fn new(tets: &[[u32; 4]], n: usize) -> Result<Self> {
-        if tets.len() > (u32::MAX / 4) as usize {
-            return Err(Error::InvalidOption {
-                message: format!("{} tets: at most {} are supported", tets.len(), u32::MAX / 4),
+        let rows = Rows::new(tets, n)?;
+        let mut indices = vec![0u32; rows.nnz()];
+        let mut corner_slots = vec![[0u32; 3]; rows.corners.items.len()];
+        let mut diagonal = vec![0u32; n];
+        groups_mut(&mut indices, &rows.indptr)
+            .into_par_iter()
+            .zip(groups_mut(&mut corner_slots, &rows.corners.offsets))
+            .zip(diagonal.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, ((cols, slots), diag))| {
+                rows.build(i, |row| {
+                    cols.copy_from_slice(row.cols);
+                    slots.copy_from_slice(row.slots);
+                    *diag = row.diagonal;
+                })
             });
-        }
-        let corners = corner_incidence(tets, n);
-        // Row i has at most 1 + 3 * (tets around i) entries: build every row in a buffer of
-        // that size, then compact. A row is built by sorting the keys (neighbour, origin),
-        // origin = 3 q + o for the o-th other corner of the q-th tet around i (or MAX for the
-        // diagonal), so that the slot of every origin falls out of the same pass.
-        let bound: Vec<usize> = (0..=n).map(|i| 3 * corners.offsets[i] + i).collect();
-        let mut buffer = vec![0u32; bound[n]];
-        let mut corner_slots = vec![[0u32; 3]; corners.items.len()];
-        let rows: Vec<(usize, u32)> = groups_mut(&mut buffer, &bound)
-            .into_par_iter()
-            .zip(groups_mut(&mut corner_slots, &corners.offsets))
-            .enumerate()
-            .map_init(Vec::new, |keys: &mut Vec<u64>, (i, (row, slots))| {
-                keys.clear();
-                keys.push(((i as u64) << 32) | u32::MAX as u64);
-                for (q, &k) in corners.of(i).iter().enumerate() {
-                    let (tet, c) = (&tets[k as usize / 4], k as usize % 4);
-                    for (o, &corner) in OTHERS[c].iter().enumerate() {
-                        keys.push(((tet[corner] as u64) << 32) | (3 * q + o) as u64);
-                    }
-                }
-                keys.sort_unstable();
-                let (mut len, mut diagonal) = (0usize, 0u32);
-                for &key in keys.iter() {
-                    let (j, origin) = ((key >> 32) as u32, key as u32);
-                    if len == 0 || row[len - 1] != j {
-                        row[len] = j;
-                        len += 1;
-                    }
-                    if origin == u32::MAX {
-                        diagonal = (len - 1) as u32;
-                    } else {
-                        slots[origin as usize / 3][origin as usize % 3] = (len - 1) as u32;
-                    }
-                }
-                (len, diagonal)
-            })
-            .collect();
-        let mut indptr = Vec::with_capacity(n + 1);
-        indptr.push(0);
-        for &(len, _) in &rows {
-            indptr.push(indptr.last().unwrap() + len);
-        }
-        let mut indices = vec![0u32; indptr[n]];
-        groups_mut(&mut indices, &indptr)
-            .into_par_iter()
-            .enumerate()
-            .for_each(|(i, out)| out.copy_from_slice(&buffer[bound[i]..bound[i] + out.len()]));
-        let diagonal = rows.into_iter().map(|(_, d)| d).collect();
+        let Rows { corners, indptr, .. } = rows;
         Ok(Topology { n, corners, corner_slots, indptr, indices, diagonal })
     }
 
@@ -148,6 +111,118 @@ impl Topology {
     }
 }
 
+/// One row of the pattern as built from the tets around its vertex.
+pub(crate) struct Row<'a> {
+    /// Sorted columns: the vertex and its neighbours.
+    pub cols: &'a [u32],
+    /// For the k-th tet-corner around the vertex, the positions in `cols` of the other
+    /// three corners of its tet (ascending corner order).
+    pub slots: &'a [[u32; 3]],
+    /// Position of the vertex itself in `cols`.
+    pub diagonal: u32,
+}
+
+/// Scratch of one worker thread: a position per vertex (`u32::MAX` when unused, and
+/// restored to that after every row) and small buffers.
+#[derive(Default)]
+struct Scratch {
+    position: Vec<u32>,
+    cols: Vec<u32>,
+    slots: Vec<[u32; 3]>,
+    order: Vec<(u32, u32)>,
+    rank: Vec<u32>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
+/// The rows of a mesh's pattern, built on demand from the tets around each vertex.
+pub(crate) struct Rows<'a> {
+    tets: &'a [[u32; 4]],
+    pub corners: Incidence,
+    pub indptr: Vec<usize>,
+}
+
+impl<'a> Rows<'a> {
+    /// Counts every row (a first pass that deduplicates neighbours with the per-thread
+    /// position array) and lays out `indptr`.
+    pub fn new(tets: &'a [[u32; 4]], n: usize) -> Result<Self> {
+        if tets.len() > (u32::MAX / 4) as usize {
+            return Err(Error::InvalidOption {
+                message: format!("{} tets: at most {} are supported", tets.len(), u32::MAX / 4),
+            });
+        }
+        let corners = corner_incidence(tets, n);
+        let mut rows = Rows { tets, corners, indptr: Vec::new() };
+        let lengths: Vec<usize> =
+            (0..n).into_par_iter().map(|i| rows.build_unsorted(i, |cols, _| cols.len())).collect();
+        let mut indptr = Vec::with_capacity(n + 1);
+        indptr.push(0);
+        for len in lengths {
+            indptr.push(indptr.last().unwrap() + len);
+        }
+        rows.indptr = indptr;
+        Ok(rows)
+    }
+
+    pub fn nnz(&self) -> usize {
+        *self.indptr.last().unwrap()
+    }
+
+    /// Row `i` in order of first appearance: columns and the slots of every corner item.
+    fn build_unsorted<R>(&self, i: usize, f: impl FnOnce(&[u32], &[[u32; 3]]) -> R) -> R {
+        SCRATCH.with(|scratch| {
+            let s = &mut *scratch.borrow_mut();
+            let n = self.corners.offsets.len() - 1;
+            if s.position.len() < n {
+                s.position.resize(n, u32::MAX);
+            }
+            s.cols.clear();
+            s.slots.clear();
+            s.position[i] = 0;
+            s.cols.push(i as u32);
+            for &k in self.corners.of(i) {
+                let (tet, c) = (&self.tets[k as usize / 4], k as usize % 4);
+                let slot = OTHERS[c].map(|o| {
+                    let v = tet[o] as usize;
+                    if s.position[v] == u32::MAX {
+                        s.position[v] = s.cols.len() as u32;
+                        s.cols.push(v as u32);
+                    }
+                    s.position[v]
+                });
+                s.slots.push(slot);
+            }
+            for &v in &s.cols {
+                s.position[v as usize] = u32::MAX;
+            }
+            f(&s.cols, &s.slots)
+        })
+    }
+
+    /// Row `i` with sorted columns (see [`Row`]).
+    pub fn build<R>(&self, i: usize, f: impl FnOnce(Row) -> R) -> R {
+        self.build_unsorted(i, |_, _| ());
+        SCRATCH.with(|scratch| {
+            let s = &mut *scratch.borrow_mut();
+            s.order.clear();
+            s.order.extend(s.cols.iter().enumerate().map(|(k, &v)| (v, k as u32)));
+            s.order.sort_unstable();
+            s.rank.resize(s.cols.len(), 0);
+            for (pos, &(v, first)) in s.order.iter().enumerate() {
+                s.rank[first as usize] = pos as u32;
+                s.cols[pos] = v;
+            }
+            for slot in s.slots.iter_mut() {
+                *slot = slot.map(|k| s.rank[k as usize]);
+            }
+            let diagonal = s.rank[0];
+            f(Row { cols: &s.cols, slots: &s.slots, diagonal })
+        })
+    }
+}
+
 /// Whether each tet has a face that no other tet shares (a boundary face).
 pub fn boundary_tets(tets: &[[u32; 4]]) -> Vec<bool> {
     let mut keys: Vec<([u32; 3], u32)> = tets
@@ -172,21 +247,39 @@ pub fn boundary_tets(tets: &[[u32; 4]]) -> Vec<bool> {
     boundary
 }
 
-/// Tet-corners per vertex by a counting sort (ascending corner ids within each vertex).
+/// Tet-corners per vertex (ascending corner ids within each vertex), by a counting sort
+/// parallel over vertex ranges: every worker scans all corners and keeps its own range.
 fn corner_incidence(tets: &[[u32; 4]], n: usize) -> Incidence {
-    let mut offsets = vec![0usize; n + 1];
-    for &v in tets.iter().flatten() {
-        offsets[v as usize + 1] += 1;
+    let corners = tets.as_flattened();
+    let parts = (rayon::current_num_threads() * 2).clamp(1, n.max(1));
+    let bounds: Vec<usize> = (0..=parts).map(|p| p * n / parts).collect();
+    let mut counts = vec![0usize; n];
+    groups_mut(&mut counts, &bounds).into_par_iter().enumerate().for_each(|(p, counts)| {
+        let lo = bounds[p];
+        for &v in corners {
+            if let Some(c) = (v as usize).checked_sub(lo).and_then(|k| counts.get_mut(k)) {
+                *c += 1;
+            }
+        }
+    });
+    let mut offsets = Vec::with_capacity(n + 1);
+    offsets.push(0);
+    for c in counts {
+        offsets.push(offsets.last().unwrap() + c);
     }
-    for i in 0..n {
-        offsets[i + 1] += offsets[i];
-    }
-    let mut cursor = offsets[..n].to_vec();
-    let mut items = vec![0u32; 4 * tets.len()];
-    for (flat, &v) in tets.iter().flatten().enumerate() {
-        items[cursor[v as usize]] = flat as u32;
-        cursor[v as usize] += 1;
-    }
+    let mut items = vec![0u32; corners.len()];
+    let item_bounds: Vec<usize> = bounds.iter().map(|&b| offsets[b]).collect();
+    groups_mut(&mut items, &item_bounds).into_par_iter().enumerate().for_each(|(p, out)| {
+        let (lo, hi) = (bounds[p], bounds[p + 1]);
+        let mut cursor: Vec<usize> = (lo..hi).map(|i| offsets[i] - offsets[lo]).collect();
+        for (flat, &v) in corners.iter().enumerate() {
+            let v = v as usize;
+            if (lo..hi).contains(&v) {
+                out[cursor[v - lo]] = flat as u32;
+                cursor[v - lo] += 1;
+            }
+        }
+    });
     Incidence { offsets, items }
 }
 
