@@ -1,6 +1,7 @@
 //! Validated, borrowed view of a tetrahedral mesh: the one place where input is checked.
 
 use crate::error::{Error, Result};
+use rayon::prelude::*;
 
 /// Largest vertex count: indices are `u32` in the core and `i32` in the CSR output.
 pub const MAX_VERTICES: usize = i32::MAX as usize;
@@ -124,7 +125,7 @@ pub(crate) fn check_points(points: &[f64], dim: usize, min_dim: usize) -> Result
     if n > MAX_VERTICES {
         return Err(Error::TooManyVertices { n_vertices: n, max: MAX_VERTICES });
     }
-    if let Some(k) = points.iter().position(|x| !x.is_finite()) {
+    if let Some(k) = points.par_iter().position_first(|x| !x.is_finite()) {
         return Err(Error::NonFiniteCoordinate {
             vertex: k / dim,
             coordinate: k % dim,
@@ -139,22 +140,23 @@ pub(crate) fn check_elements<const K: usize>(elements: &[[u32; K]], n: usize) ->
     if n == 0 || elements.is_empty() {
         return Err(Error::EmptyMesh { n_vertices: n, n_elements: elements.len() });
     }
-    for (element, e) in elements.iter().enumerate() {
+    let problem = |element: usize, e: &[u32; K]| -> Option<Error> {
         for (corner, &v) in e.iter().enumerate() {
             if v as usize >= n {
-                return Err(Error::IndexOutOfRange {
-                    element,
-                    corner,
-                    index: v as i64,
-                    n_vertices: n,
-                });
+                let index = v as i64;
+                return Some(Error::IndexOutOfRange { element, corner, index, n_vertices: n });
             }
             if e[..corner].contains(&v) {
-                return Err(Error::RepeatedVertex { element, vertex: v });
+                return Some(Error::RepeatedVertex { element, vertex: v });
             }
         }
+        None
+    };
+    // the first bad element, whatever the scheduling
+    match elements.par_iter().enumerate().position_first(|(t, e)| problem(t, e).is_some()) {
+        Some(t) => Err(problem(t, &elements[t]).expect("found above")),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// Converts signed 64-bit indices (`k` per element, row-major) to `u32` elements,
@@ -171,7 +173,9 @@ pub fn elements_from_i64<const K: usize>(flat: &[i64], n_vertices: usize) -> Res
             message: format!("{} indices do not form rows of {K}", flat.len()),
         });
     }
-    if let Some(k) = flat.iter().position(|&i| i < 0 || i as u64 >= n_vertices as u64) {
+    let out_of_range = |i: i64| i < 0 || i as u64 >= n_vertices as u64;
+    if flat.par_iter().any(|&i| out_of_range(i)) {
+        let k = flat.iter().position(|&i| out_of_range(i)).expect("found above");
         return Err(Error::IndexOutOfRange {
             element: k / K,
             corner: k % K,
@@ -179,8 +183,5 @@ pub fn elements_from_i64<const K: usize>(flat: &[i64], n_vertices: usize) -> Res
             n_vertices,
         });
     }
-    Ok(flat
-        .chunks_exact(K)
-        .map(|c| std::array::from_fn(|j| c[j] as u32))
-        .collect())
+    Ok(flat.par_chunks_exact(K).map(|c| std::array::from_fn(|j| c[j] as u32)).collect())
 }

@@ -28,10 +28,12 @@ impl Input {
         if tets.shape()[1] != 4 {
             return Err(PyValueError::new_err("tets must have shape (m, 4)"));
         }
-        let points = points.as_array().iter().copied().collect::<Vec<f64>>();
-        let flat = tets.as_array().iter().copied().collect::<Vec<i64>>();
-        let tets = tetlap::elements_from_i64::<4>(&flat, n).map_err(|e| to_py(py, e))?;
-        let weights = weights.map(|w| w.as_array().iter().copied().collect());
+        // The Python layer hands over C-contiguous arrays: plain slice copies.
+        let points = contiguous(points)?.to_vec();
+        let tets = tetlap::elements_from_i64::<4>(contiguous(tets)?, n).map_err(|e| to_py(py, e))?;
+        let weights = weights.map(|w| w.as_slice().map(|w| w.to_vec())).transpose().map_err(|_| {
+            PyValueError::new_err("weights must be C-contiguous")
+        })?;
         Ok(Input { points, dim, tets, weights })
     }
 
@@ -53,6 +55,11 @@ impl Default for RawOptions {
     fn default() -> Self {
         RawOptions(None, "raise".into(), "circumcentric".into())
     }
+}
+
+/// The data of a C-contiguous array (the Python layer guarantees it).
+fn contiguous<'a, T: numpy::Element>(a: &'a PyReadonlyArray2<'_, T>) -> PyResult<&'a [T]> {
+    a.as_slice().map_err(|_| PyValueError::new_err("internal: arrays must be C-contiguous"))
 }
 
 /// Parsed operator kinds and options.

@@ -5,6 +5,7 @@ use crate::errors::guarded;
 use numpy::{
     PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
 };
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
@@ -64,7 +65,7 @@ impl PyMesh {
             let message = format!("the new points must have {dim} columns, got {}", points.shape()[1]);
             return Err(crate::errors::to_py(py, tetlap::Error::Shape { message }));
         }
-        let points = points.as_array().iter().copied().collect::<Vec<f64>>();
+        let points = points.as_slice().map_err(|_| PyValueError::new_err("internal: arrays must be C-contiguous"))?.to_vec();
         let inner = &mut self.inner;
         let u = guarded(py, move || inner.update(&points))?;
         Ok((u.moved_vertices, u.recomputed_tets, u.recomputed_rows))
