@@ -4,6 +4,7 @@
                                    (a built-in random Delaunay ball when MESH is omitted)
     tetlap assemble MESH -o L.npz  save L (and M to L.mass.npz) for scipy.sparse.load_npz
     tetlap bench [--sizes ...]     timings against the floor and installed baselines
+    tetlap experiment NAME         the paper's experiments (CSV + PNG + summary)
 """
 
 from __future__ import annotations
@@ -186,7 +187,23 @@ def main(argv: list[str] | None = None) -> int:
     p_bench.add_argument("--repeat", type=int, default=None, help="repetitions (median reported)")
     p_bench.add_argument("--quick", action="store_true", help="small sizes, fast baselines only")
     p_bench.add_argument("--json", action="store_true", help="print JSON records")
+    p_exp = sub.add_parser("experiment", help="reproduce the paper's experiments")
+    p_exp.add_argument("name", choices=["dirichlet-shell", "eigen-ball", "negative-weights",
+                                        "sphere3", "flips"])
+    p_exp.add_argument("--quick", action="store_true", help="small sizes (< 2 minutes)")
+    p_exp.add_argument("--out", help="output folder (default tetlap-experiments/NAME)")
+    p_exp.add_argument("--seed", type=int, default=0)
+    p_exp.add_argument("--meshes", help="negative-weights: a folder of mesh files")
     args = parser.parse_args(argv)
+
+    if args.command == "experiment":
+        from . import experiments
+
+        folder = experiments.run(args.name, quick=args.quick, out=args.out, seed=args.seed,
+                                 meshes=args.meshes)
+        print((folder / "summary.txt").read_text(), end="")
+        print(f"files: {', '.join(sorted(p.name for p in folder.iterdir()))} in {folder}")
+        return 0
 
     if args.command == "bench":
         from . import benchmark

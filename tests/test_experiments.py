@@ -1,0 +1,87 @@
+"""Smoke runs of every experiment (quick sizes) and the robust facts they show."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+import tetlap
+from tetlap import experiments
+from tetlap.experiments import flips
+
+from conftest import MESH_DIR
+
+
+def rows(folder):
+    with open(folder / "results.csv") as f:
+        return list(csv.DictReader(f))
+
+
+def run(name, tmp_path, **kw):
+    folder = experiments.run(name, quick=True, out=tmp_path / name, **kw)
+    assert (folder / "results.csv").is_file() and (folder / "summary.txt").is_file()
+    pytest.importorskip("matplotlib")
+    assert any(p.suffix == ".png" and p.stat().st_size > 5000 for p in folder.iterdir())
+    return folder
+
+
+def test_dirichlet_shell(tmp_path):
+    folder = run("dirichlet-shell", tmp_path)
+    data = rows(folder)
+    random = [r for r in data if r["family"] == "random Delaunay"]
+    assert all(float(r["variance_dual"]) < float(r["variance_primal"]) for r in random)
+    assert "median variance ratio" in (folder / "summary.txt").read_text()
+
+
+def test_eigen_ball(tmp_path):
+    data = rows(run("eigen-ball", tmp_path))
+    mine = [r for r in data if r["family"] == "random Delaunay" and r["laplacian"] == "primal"
+            and r["mass"] == "barycentric"]
+    deviations = [float(r["mean_relative_deviation"]) for r in mine]
+    assert len(deviations) == 2 and deviations[1] < deviations[0] < 0.2
+
+
+def test_negative_weights_built_in(tmp_path):
+    data = rows(run("negative-weights", tmp_path))
+    assert all(int(r["nan_inf_primal"]) == 0 and int(r["nan_inf_dual"]) == 0 for r in data)
+    ball = next(r for r in data if r["mesh"].startswith("ball"))
+    assert float(ball["negative_fraction_dual"]) == 0.0 < float(ball["negative_fraction_primal"])
+
+
+def test_negative_weights_on_a_folder(tmp_path):
+    if not MESH_DIR.is_dir():
+        pytest.skip(f"real-mesh corpus not found at {MESH_DIR}")
+    data = rows(run("negative-weights", tmp_path, meshes=MESH_DIR))
+    assert len(data) == 12  # quick: the first 12 files
+    assert all(int(r["nan_inf_primal"]) == 0 and int(r["nan_inf_dual"]) == 0 for r in data)
+
+
+def test_sphere3(tmp_path):
+    data = rows(run("sphere3", tmp_path))
+    first, last = data[0], data[-1]
+    for kind in ("primal", "dual"):  # normals converge for both
+        assert float(last[f"normal_angle_mean_deg_{kind}"]) < float(first[f"normal_angle_mean_deg_{kind}"])
+    # pointwise mean curvature converges for the dual only (paper Fig. 14)
+    assert float(last["curvature_error_mean_dual"]) < 0.5 * float(first["curvature_error_mean_dual"])
+    assert float(last["curvature_error_mean_primal"]) > 0.05
+    assert all(float(r["min_weight_dual"]) > 0 for r in data)
+
+
+def test_flips(tmp_path):
+    data = rows(run("flips", tmp_path))
+    assert all(float(r["rank_gap_dual"]) < 1e-6 and float(r["rank_gap_primal"]) < 1e-6 for r in data)
+
+
+def test_flip_energy_change_vanishes_for_cospherical_points_with_the_dual():
+    """Paper Sec. 9: for co-spherical points the dual energy does not depend on the split."""
+    for z0 in (0.0, 0.3, -0.5):
+        r = np.sqrt(1 - z0**2)
+        angle = np.array([0.1, 2.2, 4.3])
+        X = np.vstack([np.column_stack([r * np.cos(angle), r * np.sin(angle), np.full(3, z0)]),
+                       [[0, 0, 1], [0, 0, -1]]])
+        D = {k: (tetlap.laplacian(X, flips.TWO, k) - tetlap.laplacian(X, flips.THREE, k)).toarray()
+             for k in ("primal", "dual")}
+        assert np.abs(D["dual"]).max() < 1e-12
+        assert np.abs(D["primal"]).max() > 0.1
