@@ -68,7 +68,7 @@ CORNER_V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
 @pytest.mark.parametrize("V, T, error, match", [
     (np.zeros(12), [[0, 1, 2, 3]], tetlap.ShapeError, r"shape \(n, d\)"),
     (np.zeros((4, 2)), [[0, 1, 2, 3]], tetlap.ShapeError, "at least 3 coordinates"),
-    (CORNER_V, [[0, 1, 2]], tetlap.ShapeError, r"\(m, 4\)"),
+    (CORNER_V, [[0, 1]], tetlap.ShapeError, r"\(m, 3\) or \(m, 4\)"),
     (CORNER_V, [[0, 1, 2, 3, 4]], tetlap.ShapeError, r"\(m, 4\)"),
     (CORNER_V, [0, 1, 2, 3], tetlap.ShapeError, r"\(m, 4\)"),
     (CORNER_V, [[0.0, 1.0, 2.0, 3.0]], tetlap.DtypeError, "integer"),

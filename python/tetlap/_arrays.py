@@ -37,8 +37,10 @@ def points(V) -> np.ndarray:
     return np.ascontiguousarray(arr, dtype=np.float64)
 
 
-def elements(T, n_columns: int = 4) -> np.ndarray:
-    """``T`` as a C-contiguous ``(m, k)`` int64 array of any integer input dtype."""
+def elements(T, n_columns=(3, 4)) -> np.ndarray:
+    """``T`` as a C-contiguous ``(m, k)`` int64 array of any integer input dtype, ``k`` in
+    ``n_columns`` (tets: 4, triangles: 3)."""
+    n_columns = (n_columns,) if isinstance(n_columns, int) else tuple(n_columns)
     arr = _as_array(T, "T")
     if arr.size == 0:
         raise EmptyMeshError("T is empty: the mesh has no elements")
@@ -47,14 +49,16 @@ def elements(T, n_columns: int = 4) -> np.ndarray:
             f"T must hold integer vertex indices, got dtype {arr.dtype} "
             "(cast it yourself if the values are whole numbers)"
         )
-    if arr.ndim != 2 or arr.shape[1] != n_columns:
-        raise ShapeError(f"T must have shape (m, {n_columns}), got {arr.shape}")
+    if arr.ndim != 2 or arr.shape[1] not in n_columns:
+        shapes = " or ".join(f"(m, {k})" for k in n_columns)
+        raise ShapeError(f"T must have shape {shapes}, got {arr.shape}")
     if arr.dtype == np.uint64 and arr.max() > _I64_MAX:
         flat = int(np.argmax(arr.ravel() > _I64_MAX))
         bad = int(arr.ravel()[flat])
+        element = flat // arr.shape[1]
         raise IndexRangeError(
-            f"element {flat // n_columns} refers to vertex {bad}, beyond any valid index",
-            element=flat // n_columns, index=bad,
+            f"element {element} refers to vertex {bad}, beyond any valid index",
+            element=element, index=bad,
         )
     return np.ascontiguousarray(arr, dtype=np.int64)
 

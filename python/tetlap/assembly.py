@@ -2,10 +2,13 @@
 
 Conventions (all functions)
 ---------------------------
-V : (n, d) array-like of real numbers, d >= 3 (d > 3: an immersed mesh; every tet is
-    computed in its own 3-space). Any real dtype; converted to float64.
-T : (m, 4) array-like of integer vertex indices, 0-based, any integer dtype, any
-    orientation: results do not depend on the orientation or vertex order of a tet.
+V : (n, d) array-like of real numbers, d >= 3 for tets, d >= 2 for triangles (larger d:
+    an immersed mesh; every element is computed in its own 3- or 2-space). Any real dtype;
+    converted to float64.
+T : (m, 4) tets or (m, 3) triangles: integer vertex indices, 0-based, any integer dtype,
+    any orientation: results do not depend on the orientation or vertex order of an
+    element. For triangles the primal (cotan, Eq. 6) and the dual (Eq. 16) coincide; the
+    local edge order is (0,1), (0,2), (1,2); ``boundary`` and ``weights`` are for tets.
 L : (n, n) ``scipy.sparse.csr_array``, float64, sorted indices, no duplicates, pattern
     exactly the mesh edges plus the diagonal. Sign as in the paper (Eq. 1):
     ``L[i, j] = w_ij`` on edges, ``L[i, i] = -sum_j w_ij``; rows sum to zero; the primal L
@@ -47,9 +50,12 @@ __all__ = [
 ]
 
 
-def _inputs(V, T, weights=None):
+def _inputs(V, T, weights=None, boundary="circumcentric"):
     V = _arrays.points(V)
-    return V, _arrays.elements(T), _arrays.vertex_weights(weights, V.shape[0])
+    T = _arrays.elements(T)
+    if T.shape[1] == 3 and (weights is not None or boundary != "circumcentric"):
+        raise _arrays.OptionError("`weights` and `boundary` apply to tet meshes only")
+    return V, T, _arrays.vertex_weights(weights, V.shape[0])
 
 
 def _csr(arrays, n: int) -> sp.csr_array:
@@ -90,7 +96,7 @@ def laplacian(V, T, kind="primal", *, boundary="circumcentric", weights=None,
     >>> L[[0], :].toarray().round(4)
     array([[-0.75,  0.25,  0.25,  0.25]])
     """
-    V, T, w = _inputs(V, T, weights)
+    V, T, w = _inputs(V, T, weights, boundary)
     opts = _arrays.options(threads, degenerate, boundary)
     name, t = _arrays.laplacian_kind(kind)
     arrays = _core.laplacian(V, T, w, name, t, opts)
@@ -114,7 +120,7 @@ def mass(V, T, kind="barycentric", *, boundary="circumcentric", weights=None,
     >>> tetlap.mass(V, [[0, 1, 2, 3]], kind="circumcentric").diagonal() * 72
     array([9., 1., 1., 1.])
     """
-    V, T, w = _inputs(V, T, weights)
+    V, T, w = _inputs(V, T, weights, boundary)
     opts = _arrays.options(threads, degenerate, boundary)
     result = _core.mass(V, T, w, _arrays.mass_kind(kind), opts)
     return _mass(result, V.shape[0])
@@ -134,7 +140,7 @@ def operators(V, T, laplacian="primal", mass="barycentric", *, boundary="circumc
     >>> round(M.sum(), 12)
     1.0
     """
-    V, T, w = _inputs(V, T, weights)
+    V, T, w = _inputs(V, T, weights, boundary)
     opts = _arrays.options(threads, degenerate, boundary)
     name, t = _arrays.laplacian_kind(laplacian)
     L, M = _core.operators(V, T, w, name, t, _arrays.mass_kind(mass), opts)
@@ -153,10 +159,11 @@ class Triplets(NamedTuple):
 
 def triplets(V, T, kind="primal", *, boundary="circumcentric", weights=None,
              degenerate="raise", threads=None) -> Triplets:
-    """The Laplacian as unsummed triplets: 16 per tet, its local 4 x 4 Laplacian.
+    """The Laplacian as unsummed triplets: 16 per tet (9 per triangle), its local Laplacian.
 
     Returns rows, cols (int64, shape (16 m,)), vals (float64) and shape (n, n); entry
-    ``16 t + 4 a + b`` belongs to corners ``a, b`` of tet ``t``. Summing duplicates gives
+    ``16 t + 4 a + b`` belongs to corners ``a, b`` of tet ``t`` (``9 t + 3 a + b`` for
+    triangles). Summing duplicates gives
     :func:`laplacian` up to rounding. Useful to assemble into another sparse format.
 
     Example
@@ -168,7 +175,7 @@ def triplets(V, T, kind="primal", *, boundary="circumcentric", weights=None,
     >>> bool(abs(L - tetlap.laplacian(V, T)).max() < 1e-12)
     True
     """
-    V, T, w = _inputs(V, T, weights)
+    V, T, w = _inputs(V, T, weights, boundary)
     opts = _arrays.options(threads, degenerate, boundary)
     name, t = _arrays.laplacian_kind(kind)
     rows, cols, vals = _core.triplets(V, T, w, name, t, opts)
@@ -193,7 +200,7 @@ def edge_weights(V, T, kind="primal", *, boundary="circumcentric", weights=None,
     >>> edges[0].tolist(), float(w[0])
     ([0, 1], 0.25)
     """
-    V, T, w = _inputs(V, T, weights)
+    V, T, w = _inputs(V, T, weights, boundary)
     opts = _arrays.options(threads, degenerate, boundary)
     name, t = _arrays.laplacian_kind(kind)
     return _core.edge_weights(V, T, w, name, t, opts)
@@ -201,8 +208,9 @@ def edge_weights(V, T, kind="primal", *, boundary="circumcentric", weights=None,
 
 def tet_contributions(V, T, kind="primal", *, boundary="circumcentric", weights=None,
                       degenerate="raise", threads=None) -> np.ndarray:
-    """Per-tet edge weights, (m, 6) float64, local edge order
-    ``(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)`` of each row of T.
+    """Per-element edge weights: (m, 6) float64 for tets, local edge order
+    ``(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)`` of each row of T; (m, 3) for triangles,
+    order ``(0,1), (0,2), (1,2)``.
 
     Example
     -------
@@ -211,7 +219,7 @@ def tet_contributions(V, T, kind="primal", *, boundary="circumcentric", weights=
     >>> (tetlap.tet_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12)
     array([[1., 1., 1., 0., 0., 0.]])
     """
-    V, T, w = _inputs(V, T, weights)
+    V, T, w = _inputs(V, T, weights, boundary)
     opts = _arrays.options(threads, degenerate, boundary)
     name, t = _arrays.laplacian_kind(kind)
     return _core.tet_contributions(V, T, w, name, t, opts)

@@ -53,7 +53,7 @@ class Mesh:
 
     def __init__(self, V, T, *, boundary="circumcentric", weights=None, degenerate="raise",
                  threads=None) -> None:
-        V, T = _arrays.points(V), _arrays.elements(T)
+        V, T = _arrays.points(V), _arrays.elements(T, 4)
         w = _arrays.vertex_weights(weights, V.shape[0])
         self._core = _core.Mesh(V, T, w, _arrays.options(threads, degenerate, boundary))
         self._n = V.shape[0]

@@ -131,7 +131,7 @@ def check(L, V, T, M=None, *, negative_tol: float = NEGATIVE_TOL, nsd: bool = Tr
     of ``-L + eps I`` with ``eps = 1e-9 max|L|`` (n <= 300000); beyond that it is skipped.
     """
     V = _arrays.points(V)
-    T = _arrays.elements(T)
+    T = _arrays.elements(T, 4)
     n = V.shape[0]
     L = sp.csr_array(L, dtype=np.float64)
     if L.shape != (n, n):

@@ -190,7 +190,7 @@ def neumann_primal_kkt(L, V, T, normal_derivative, rhs=None, *, gauge="mean") ->
 
     L = sp.csr_array(L, dtype=np.float64)
     V = _arrays.points(V)
-    T = _arrays.elements(T)
+    T = _arrays.elements(T, 4)
     n = len(V)
     bf = boundary_faces(T)
     # the tet of every boundary face and its opposite corner
@@ -236,7 +236,7 @@ def _boundary_pieces(V, T):
     from .diagnostics import boundary_faces
 
     V = _arrays.points(V)
-    bf = boundary_faces(_arrays.elements(T))
+    bf = boundary_faces(_arrays.elements(T, 4))
     P = V[bf]
     n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
     area = np.linalg.norm(n, axis=1) / 2

@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{local_tet, LocalTet};
 use crate::local;
 use crate::mesh::TetMesh;
-use crate::topology::{boundary_tets, groups_mut, Incidence, Rows, Topology, OTHERS};
+use crate::topology::{boundary_tets, groups_mut, Incidence, Rows, Topology};
 use rayon::prelude::*;
 use std::borrow::Cow;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -97,6 +97,18 @@ pub(crate) fn run<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send)
     }
 }
 
+/// Where the per-element pass gets its elements from (tets or triangles).
+pub(crate) trait Source: Sync {
+    /// One element as its kernels see it.
+    type Item;
+    /// Element `t` (`scratch` holds `scratch_len()` values for immersed frames).
+    fn get(&self, t: usize, scratch: &mut [f64]) -> Self::Item;
+    /// Scratch length for [`Source::get`].
+    fn scratch_len(&self) -> usize;
+    /// The error for element `t`, known to fail: zero measure or a non-finite value.
+    fn fault_error(&self, t: usize) -> Error;
+}
+
 /// Which tets get the barycentric boundary fix, if the options ask for it.
 pub(crate) fn boundary_mask(mesh: &TetMesh, opts: &Options) -> Option<Vec<bool>> {
     (opts.boundary == Boundary::Barycentric).then(|| boundary_tets(mesh.tets()))
@@ -142,7 +154,12 @@ impl<'a> Elements<'a> {
         Elements { mesh, boundary: boundary.map(Cow::Borrowed) }
     }
 
-    pub fn get(&self, t: usize, scratch: &mut [f64]) -> Element {
+}
+
+impl Source for Elements<'_> {
+    type Item = Element;
+
+    fn get(&self, t: usize, scratch: &mut [f64]) -> Element {
         let mesh = &self.mesh;
         let tet = mesh.tets()[t];
         let frame = local_tet(tet.map(|v| mesh.point(v)), scratch);
@@ -152,8 +169,7 @@ impl<'a> Elements<'a> {
         Element { frame, weights, fix_boundary, dual: Default::default() }
     }
 
-    /// The error for tet `t`, known to fail: zero volume or a non-finite value.
-    pub fn fault_error(&self, t: usize) -> Error {
+    fn fault_error(&self, t: usize) -> Error {
         let el = self.get(t, &mut vec![0.0; self.scratch_len()]);
         if local::is_degenerate(&el.frame) {
             Error::Degenerate { element: t }
@@ -220,11 +236,11 @@ pub(crate) fn weights_and_mass(
 /// A tet for which `f` fails gets `T::default()` under [`Degenerate::Skip`]; under
 /// [`Degenerate::Raise`] the first such tet (lowest index, whatever the scheduling) is
 /// reported.
-fn pass<T: Default, S: Send>(
-    elements: &Elements,
+fn pass<Src: Source, T: Default, S: Send>(
+    elements: &Src,
     degenerate: Degenerate,
     slots: impl IndexedParallelIterator<Item = S>,
-    f: impl Fn(&Element) -> std::result::Result<T, Fault> + Sync,
+    f: impl Fn(&Src::Item) -> std::result::Result<T, Fault> + Sync,
     store: impl Fn(S, T) + Sync,
 ) -> Result<()> {
     let first_fault = AtomicUsize::new(usize::MAX);
@@ -242,23 +258,28 @@ fn pass<T: Default, S: Send>(
 }
 
 /// [`pass`] into one output slot per tet.
-pub(crate) fn per_tet<T: Copy + Default + Send + Sync>(
-    elements: &Elements,
+pub(crate) fn per_tet<Src: Source, T: Copy + Default + Send + Sync>(
+    elements: &Src,
     degenerate: Degenerate,
     out: &mut [T],
-    f: impl Fn(&Element) -> std::result::Result<T, Fault> + Sync,
+    f: impl Fn(&Src::Item) -> std::result::Result<T, Fault> + Sync,
 ) -> Result<()> {
     pass(elements, degenerate, out.par_iter_mut(), f, |slot, v| *slot = v)
 }
 
 /// [`pass`] into two output slots per tet (weights and corner masses in one pass).
-pub(crate) fn per_tet_pair<A: Copy + Default + Send + Sync, B: Copy + Default + Send + Sync>(
-    elements: &Elements,
+pub(crate) fn per_tet_pair<Src, A, B>(
+    elements: &Src,
     degenerate: Degenerate,
     a: &mut [A],
     b: &mut [B],
-    f: impl Fn(&Element) -> std::result::Result<(A, B), Fault> + Sync,
-) -> Result<()> {
+    f: impl Fn(&Src::Item) -> std::result::Result<(A, B), Fault> + Sync,
+) -> Result<()>
+where
+    Src: Source,
+    A: Copy + Default + Send + Sync,
+    B: Copy + Default + Send + Sync,
+{
     let slots = a.par_iter_mut().zip(b.par_iter_mut());
     pass(elements, degenerate, slots, f, |(x, y), (u, v)| {
         *x = u;
@@ -285,15 +306,20 @@ pub(crate) fn per_tet_subset<T: Copy + Default + Send + Sync>(
 }
 
 /// The error for the first failing tet `t` (`usize::MAX`: none) under the policy.
-fn fault_to_error(elements: &Elements, degenerate: Degenerate, t: usize) -> Result<()> {
+fn fault_to_error(elements: &impl Source, degenerate: Degenerate, t: usize) -> Result<()> {
     if t == usize::MAX || degenerate == Degenerate::Skip {
         return Ok(());
     }
     Err(elements.fault_error(t))
 }
 
-/// Local edge index of corners `(a, b)`, `a != b`.
-const EDGE_OF: [[usize; 4]; 4] = [[6, 0, 1, 2], [0, 6, 3, 4], [1, 3, 6, 5], [2, 4, 5, 6]];
+/// Local edge index of corners `(a, b)`, `a != b`, of a `K`-corner simplex: edges in
+/// lexicographic order, `(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)` for a tet.
+#[inline]
+const fn edge_index<const K: usize>(a: usize, b: usize) -> usize {
+    let (a, b) = if a < b { (a, b) } else { (b, a) };
+    a * (2 * K - a - 1) / 2 + (b - a - 1)
+}
 
 
 /// Fills one row of an operator: entry `(i, j)` is the sum, over the tets around `i` in
@@ -302,19 +328,19 @@ const EDGE_OF: [[usize; 4]; 4] = [[6, 0, 1, 2], [0, 6, 3, 4], [1, 3, 6, 5], [2, 
 /// `diagonal(s)` with `s` the row's off-diagonal sum in column order. Every assembly path
 /// (one-shot, cached, update) goes through here, hence their bitwise agreement.
 #[inline]
-fn fill_row(
+fn fill_row<const K: usize>(
     row: &mut [f64],
     items: &[u32],
-    slots: &[[u32; 3]],
+    slots: &[u32],
     diag: usize,
     edge: &impl Fn(usize, usize) -> f64,
     diagonal: impl FnOnce(f64) -> f64,
 ) {
     row.fill(0.0);
-    for (&corner, slot) in items.iter().zip(slots) {
-        let (t, c) = (corner as usize / 4, corner as usize % 4);
-        for (&o, &k) in OTHERS[c].iter().zip(slot) {
-            row[k as usize] += edge(t, EDGE_OF[c][o]);
+    for (&corner, slot) in items.iter().zip(slots.chunks_exact(K - 1)) {
+        let (t, c) = (corner as usize / K, corner as usize % K);
+        for (o, &k) in (0..K).filter(|&o| o != c).zip(slot) {
+            row[k as usize] += edge(t, edge_index::<K>(c, o));
         }
     }
     let sum: f64 = row.iter().sum();
@@ -332,8 +358,9 @@ pub(crate) fn gather_rows(
 ) {
     let fill = |i: usize, row: &mut [f64]| {
         let range = topo.corners.offsets[i]..topo.corners.offsets[i + 1];
-        let (items, slots) = (&topo.corners.items[range.clone()], &topo.corner_slots[range]);
-        fill_row(row, items, slots, topo.diagonal[i] as usize, &edge, |s| diagonal(i, s));
+        let items = &topo.corners.items[range.clone()];
+        let slots = topo.corner_slots[range].as_flattened();
+        fill_row::<4>(row, items, slots, topo.diagonal[i] as usize, &edge, |s| diagonal(i, s));
     };
     match rows {
         None => groups_mut(data, &topo.indptr)
@@ -357,13 +384,15 @@ fn optional_rows<'a>(data: &'a mut Option<Vec<f64>>, indptr: &[usize]) -> Vec<Op
     }
 }
 
-/// One-shot assembly without storing the slot map: every row is built from its tets and
-/// filled at once. Returns the column indices and, if asked, the Laplacian's values (from
-/// per-tet weights) and the consistent mass's values (from per-tet volumes in `vol[t][0]`).
-pub(crate) fn assemble_rows(
-    rows: &Rows,
-    w: Option<&[[f64; 6]]>,
-    vol: Option<&[[f64; 4]]>,
+/// One-shot assembly without storing the slot map: every row is built from its elements
+/// and filled at once. Returns the column indices and, if asked, the Laplacian's values
+/// (from per-element weights, `E` per element) and the consistent mass's values (from
+/// per-element measures in `vol[t][0]`: `vol / fem.0` off the diagonal, the sum of
+/// `vol / fem.1` on it).
+pub(crate) fn assemble_rows<const K: usize, const E: usize>(
+    rows: &Rows<K>,
+    w: Option<&[[f64; E]]>,
+    vol: Option<(&[[f64; K]], (f64, f64))>,
 ) -> (Vec<u32>, Option<Vec<f64>>, Option<Vec<f64>>) {
     let nnz = rows.nnz();
     let mut indices = vec![0u32; nnz];
@@ -381,22 +410,25 @@ pub(crate) fn assemble_rows(
                 cols.copy_from_slice(row.cols);
                 let diag = row.diagonal as usize;
                 if let (Some(out), Some(w)) = (lap_row, w) {
-                    fill_row(out, items, row.slots, diag, &|t, e| w[t][e], |s| -s);
+                    fill_row::<K>(out, items, row.slots, diag, &|t, e| w[t][e], |s| -s);
                 }
-                if let (Some(out), Some(vol)) = (fem_row, vol) {
-                    let d: f64 = items.iter().map(|&k| vol[k as usize / 4][0] / 10.0).sum();
-                    fill_row(out, items, row.slots, diag, &|t, _| vol[t][0] / 20.0, |_| d);
+                if let (Some(out), Some((vol, (off, on)))) = (fem_row, vol) {
+                    let d: f64 = items.iter().map(|&k| vol[k as usize / K][0] / on).sum();
+                    fill_row::<K>(out, items, row.slots, diag, &|t, _| vol[t][0] / off, |_| d);
                 }
             })
         });
     (indices, lap, fem)
 }
 
-/// Sum over the tets around every vertex (ascending) of `corner(t, c)`.
-pub(crate) fn gather_vertices(corners: &Incidence, corner: impl Fn(usize, usize) -> f64 + Sync) -> Vec<f64> {
+/// Sum over the elements (`K` corners) around every vertex (ascending) of `corner(t, c)`.
+pub(crate) fn gather_vertices<const K: usize>(
+    corners: &Incidence,
+    corner: impl Fn(usize, usize) -> f64 + Sync,
+) -> Vec<f64> {
     (0..corners.offsets.len() - 1)
         .into_par_iter()
-        .map(|i| corners.of(i).iter().map(|&k| corner(k as usize / 4, k as usize % 4)).sum())
+        .map(|i| corners.of(i).iter().map(|&k| corner(k as usize / K, k as usize % K)).sum())
         .collect()
 }
 
@@ -425,7 +457,7 @@ pub(crate) fn mass_values(
             gather_rows(topo, &mut values, rows, |t, _| m[t][0] / 20.0, diagonal);
             values
         }
-        (_, None) => gather_vertices(&topo.corners, |t, c| m[t][c]),
+        (_, None) => gather_vertices::<4>(&topo.corners, |t, c| m[t][c]),
         (_, Some(rows)) => {
             for &i in rows {
                 values[i as usize] = vertex(i as usize, &|t, c| m[t][c]);

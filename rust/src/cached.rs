@@ -3,7 +3,7 @@
 
 use crate::assemble::{
     check_kind, corner_mass, laplacian_values, mass_values, per_tet, per_tet_subset, run,
-    boundary_mask, weights, Degenerate, Element, Elements, Fault, LaplacianKind, MassKind,
+    boundary_mask, weights, Degenerate, Element, Elements, Fault, LaplacianKind, MassKind, Source,
     Options,
 };
 use crate::csr::Csr;

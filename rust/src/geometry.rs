@@ -8,7 +8,7 @@
 //! coordinates as large as 1e150 or as small as 1e-150 neither overflow nor underflow in
 //! the kernels' fourth-degree products.
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 /// A tet as seen by the kernels: `edges[k-1] = (x_k - x_0) / scale`, `scale` a power of two.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -112,6 +112,71 @@ pub fn local_tet(x: [&[f64]; 4], scratch: &mut [f64]) -> LocalTet {
         ],
         scale,
     }
+}
+
+/// A triangle as seen by its kernels: `edges[k-1] = (x_k - x_0) / scale` in an orthonormal
+/// frame of its own plane, `scale` a power of two.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocalTri {
+    /// Scaled edge vectors from vertex 0 to vertices 1, 2.
+    pub edges: [DVec2; 2],
+    /// The power of two that was divided out.
+    pub scale: f64,
+}
+
+/// Edge vectors of a triangle in R^d (`d >= 2`) in its own plane, scaled like
+/// [`local_tet`] (a QR factorisation of the 2 x d edge matrix; no scratch needed).
+pub fn local_tri(x: [&[f64]; 3]) -> LocalTri {
+    let d = x[0].len();
+    let max_diff = |pre: f64| {
+        let mut m = 0.0f64;
+        for xk in &x[1..] {
+            for c in 0..d {
+                m = m.max((xk[c] * pre - x[0][c] * pre).abs());
+            }
+        }
+        m
+    };
+    let mut pre = 1.0;
+    let mut max_abs = max_diff(pre);
+    if !(max_abs < pow2(1000)) {
+        pre = pow2(-600);
+        max_abs = max_diff(pre);
+    } else if max_abs < pow2(-1000) && max_abs > 0.0 {
+        pre = pow2(600);
+        max_abs = max_diff(pre);
+    }
+    if max_abs == 0.0 {
+        return LocalTri { edges: [DVec2::ZERO; 2], scale: 1.0 };
+    }
+    let k = scale_exponent(max_abs);
+    let inv = pow2(-k);
+    let scale = pow2(k) / pre;
+    let diff = |k: usize, c: usize| (x[k][c] * pre - x[0][c] * pre) * inv;
+    if d == 2 {
+        return LocalTri {
+            edges: [DVec2::new(diff(1, 0), diff(1, 1)), DVec2::new(diff(2, 0), diff(2, 1))],
+            scale,
+        };
+    }
+    // R of the QR factorisation of the two edges, without storing q: with r00 = |e1|,
+    // r01 = e1.e2 / |e1|, r11 = |e2 - (e1.e2 / |e1|^2) e1| (twice for stability).
+    let dot = |a: usize, b: usize| (0..d).map(|c| diff(a, c) * diff(b, c)).sum::<f64>();
+    let r00 = dot(1, 1).sqrt();
+    if r00 == 0.0 {
+        return LocalTri { edges: [DVec2::ZERO, DVec2::new(dot(2, 2).sqrt(), 0.0)], scale };
+    }
+    let proj = dot(1, 2) / r00;
+    let residual = |c: usize| diff(2, c) - proj / r00 * diff(1, c);
+    let fix = (0..d).map(|c| residual(c) * diff(1, c)).sum::<f64>() / r00;
+    let r11 = (0..d)
+        .map(|c| {
+            let v = residual(c) - fix / r00 * diff(1, c);
+            v * v
+        })
+        .sum::<f64>()
+        .sqrt();
+    LocalTri { edges: [DVec2::new(r00, 0.0), DVec2::new(proj + fix, r11)], scale }
 }
 
 #[cfg(test)]

@@ -46,12 +46,16 @@ pub mod local;
 mod mesh;
 mod operators;
 mod topology;
+mod triangles;
 
 pub use assemble::{Boundary, Degenerate, LaplacianKind, MassKind, Options};
 pub use cached::{Mesh, Update};
 pub use csr::{Coo, Csr};
 pub use error::{Error, Result};
-pub use geometry::{local_tet, LocalTet};
-pub use mesh::{elements_from_i64, TetMesh, MAX_VERTICES};
-pub use operators::{edge_weights, laplacian, mass, operators, tet_contributions, triplets, Mass};
+pub use geometry::{local_tet, local_tri, LocalTet, LocalTri};
+pub use mesh::{elements_from_i64, TetMesh, TriMesh, MAX_VERTICES};
+pub use operators::{
+    edge_weights, laplacian, mass, operators, tet_contributions, triplets, upper_triangle, Mass,
+};
+pub use triangles::{tri_contributions, tri_laplacian, tri_mass, tri_operators, tri_triplets};
 pub use topology::{boundary_tets, Incidence, Topology};

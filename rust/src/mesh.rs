@@ -107,6 +107,57 @@ impl<'a> TetMesh<'a> {
     }
 }
 
+/// A triangle mesh whose input has been checked once: `points` row-major `(n, dim)` with
+/// `dim >= 2` (`dim > 2`: a surface immersed in R^dim), `tris` in any orientation.
+///
+/// ```
+/// let points = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0];
+/// let mesh = tetlap::TriMesh::new(&points, 2, &[[0, 1, 2]]).unwrap();
+/// assert_eq!(mesh.n_triangles(), 1);
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct TriMesh<'a> {
+    points: &'a [f64],
+    dim: usize,
+    tris: &'a [[u32; 3]],
+}
+
+impl<'a> TriMesh<'a> {
+    /// Checks the input (as [`TetMesh::new`], with `dim >= 2`).
+    pub fn new(points: &'a [f64], dim: usize, tris: &'a [[u32; 3]]) -> Result<Self> {
+        let n = check_points(points, dim, 2)?;
+        check_elements(tris, n)?;
+        Ok(TriMesh { points, dim, tris })
+    }
+
+    /// Number of vertices.
+    pub fn n_vertices(&self) -> usize {
+        self.points.len() / self.dim
+    }
+
+    /// Number of triangles.
+    pub fn n_triangles(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// Ambient dimension.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// The triangles.
+    pub fn triangles(&self) -> &'a [[u32; 3]] {
+        self.tris
+    }
+
+    /// Coordinates of vertex `i`.
+    #[inline]
+    pub fn point(&self, i: u32) -> &'a [f64] {
+        let i = i as usize * self.dim;
+        &self.points[i..i + self.dim]
+    }
+}
+
 /// Checks `points` as an `(n, dim)` array with `dim >= min_dim` and finite entries; returns `n`.
 pub(crate) fn check_points(points: &[f64], dim: usize, min_dim: usize) -> Result<usize> {
     if dim < min_dim {

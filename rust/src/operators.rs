@@ -30,29 +30,33 @@ impl Mass {
     }
 }
 
+/// Consistent P1 mass of a tet: `Vol / 20` off the diagonal, `Vol / 10` on it.
+const FEM_TET: (f64, f64) = (20.0, 10.0);
+
 /// Per-tet pass and row layout, side by side.
 fn with_rows<'a, T: Send>(
     mesh: &TetMesh<'a>,
     pass: impl FnOnce() -> Result<T> + Send,
-) -> Result<(T, Rows<'a>)> {
+) -> Result<(T, Rows<'a, 4>)> {
     let (values, rows) = rayon::join(pass, || Rows::new(mesh.tets(), mesh.n_vertices()));
     Ok((values?, rows?))
 }
 
-fn csr(rows: Rows, indices: Vec<u32>, data: Vec<f64>) -> Csr {
+fn csr<const K: usize>(rows: Rows<K>, indices: Vec<u32>, data: Vec<f64>) -> Csr {
     Csr { n: rows.indptr.len() - 1, indptr: rows.indptr, indices, data }
 }
 
 /// One-shot assembly of the requested operators from per-tet values.
-fn assemble(
-    rows: Rows,
-    w: Option<&[[f64; 6]]>,
-    mass: Option<(MassKind, &[[f64; 4]])>,
+pub(crate) fn assemble<const K: usize, const E: usize>(
+    rows: Rows<K>,
+    w: Option<&[[f64; E]]>,
+    mass: Option<(MassKind, &[[f64; K]])>,
+    fem_factors: (f64, f64),
 ) -> (Option<Csr>, Option<Mass>) {
-    let fem = mass.and_then(|(kind, m)| (kind == MassKind::Fem).then_some(m));
+    let fem = mass.and_then(|(kind, m)| (kind == MassKind::Fem).then_some((m, fem_factors)));
     let lumped = mass
         .filter(|(kind, _)| *kind != MassKind::Fem)
-        .map(|(_, m)| Mass::Lumped(gather_vertices(&rows.corners, |t, c| m[t][c])));
+        .map(|(_, m)| Mass::Lumped(gather_vertices::<K>(&rows.corners, |t, c| m[t][c])));
     let (indices, lap, fem) = assemble_rows(&rows, w, fem);
     let laplacian = lap.map(|data| Csr {
         n: rows.indptr.len() - 1,
@@ -82,7 +86,7 @@ pub fn laplacian(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<
             let mut w = vec![[0.0; 6]; mesh.n_tets()];
             per_tet(&Elements::new(*mesh, opts), opts.degenerate, &mut w, |t| weights(t, kind)).map(|_| w)
         })?;
-        Ok(assemble(rows, Some(&w), None).0.expect("a Laplacian was asked for"))
+        Ok(assemble(rows, Some(&w), None, FEM_TET).0.expect("a Laplacian was asked for"))
     })?
 }
 
@@ -102,7 +106,7 @@ pub fn mass(mesh: &TetMesh, kind: MassKind, opts: &Options) -> Result<Mass> {
             let mut m = vec![[0.0; 4]; mesh.n_tets()];
             per_tet(&Elements::new(*mesh, opts), opts.degenerate, &mut m, |t| corner_mass(t, kind)).map(|_| m)
         })?;
-        Ok(assemble(rows, None, Some((kind, &m))).1.expect("a mass was asked for"))
+        Ok(assemble::<4, 6>(rows, None, Some((kind, &m)), FEM_TET).1.expect("a mass was asked for"))
     })?
 }
 
@@ -122,7 +126,7 @@ pub fn operators(
             })
             .map(|_| (w, m))
         })?;
-        let (l, m) = assemble(rows, Some(&w), Some((mass, &m)));
+        let (l, m) = assemble(rows, Some(&w), Some((mass, &m)), FEM_TET);
         Ok((l.expect("a Laplacian was asked for"), m.expect("a mass was asked for")))
     })?
 }
@@ -140,37 +144,55 @@ pub fn tet_contributions(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) ->
 /// tet, row-major). Summing repeated positions gives [`laplacian`] up to rounding.
 pub fn triplets(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<Coo> {
     let w = tet_contributions(mesh, kind, opts)?;
-    let m = w.len();
-    let (mut rows, mut cols, mut vals) = (vec![0u32; 16 * m], vec![0u32; 16 * m], vec![0.0; 16 * m]);
+    local_triplets::<4>(mesh.tets(), mesh.n_vertices(), &EDGES, |t| &w[t], opts)
+}
+
+/// The local `K x K` Laplacians of all elements as triplets, from per-element weights on
+/// the local edges `pairs`.
+pub(crate) fn local_triplets<'w, const K: usize>(
+    elements: &[[u32; K]],
+    n: usize,
+    pairs: &[(usize, usize)],
+    w: impl Fn(usize) -> &'w [f64] + Sync,
+    opts: &Options,
+) -> Result<Coo> {
+    let m = elements.len();
+    let kk = K * K;
+    let (mut rows, mut cols, mut vals) = (vec![0u32; kk * m], vec![0u32; kk * m], vec![0.0; kk * m]);
     run(opts.threads, || {
-        rows.par_chunks_mut(16)
-            .zip(cols.par_chunks_mut(16))
-            .zip(vals.par_chunks_mut(16))
-            .zip(mesh.tets().par_iter().zip(w.par_iter()))
-            .for_each(|(((r, c), v), (tet, w))| {
-                let mut local = [[0.0; 4]; 4];
-                for (e, &(a, b)) in EDGES.iter().enumerate() {
-                    local[a][b] = w[e];
-                    local[b][a] = w[e];
-                    local[a][a] -= w[e];
-                    local[b][b] -= w[e];
+        rows.par_chunks_mut(kk)
+            .zip(cols.par_chunks_mut(kk))
+            .zip(vals.par_chunks_mut(kk))
+            .zip(elements.par_iter())
+            .enumerate()
+            .for_each(|(t, (((r, c), v), el))| {
+                let mut local = [[0.0; K]; K];
+                for (&(a, b), &we) in pairs.iter().zip(w(t)) {
+                    local[a][b] = we;
+                    local[b][a] = we;
+                    local[a][a] -= we;
+                    local[b][b] -= we;
                 }
-                for a in 0..4 {
-                    for b in 0..4 {
-                        r[4 * a + b] = tet[a];
-                        c[4 * a + b] = tet[b];
-                        v[4 * a + b] = local[a][b];
+                for a in 0..K {
+                    for b in 0..K {
+                        r[K * a + b] = el[a];
+                        c[K * a + b] = el[b];
+                        v[K * a + b] = local[a][b];
                     }
                 }
             })
     })?;
-    Ok(Coo { n: mesh.n_vertices(), rows, cols, vals })
+    Ok(Coo { n, rows, cols, vals })
 }
 
 /// Unique edges `(i, j)`, `i < j`, sorted, with their summed weights `w_ij` (the upper
 /// triangle of [`laplacian`]).
 pub fn edge_weights(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<(Vec<[u32; 2]>, Vec<f64>)> {
-    let l = laplacian(mesh, kind, opts)?;
+    Ok(upper_triangle(&laplacian(mesh, kind, opts)?))
+}
+
+/// The strictly upper triangle of `l`: edges `(i, j)`, `i < j`, in CSR order, and values.
+pub fn upper_triangle(l: &Csr) -> (Vec<[u32; 2]>, Vec<f64>) {
     let mut edges = Vec::with_capacity((l.nnz() - l.n) / 2);
     let mut w = Vec::with_capacity(edges.capacity());
     for i in 0..l.n {
@@ -181,5 +203,5 @@ pub fn edge_weights(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Resu
             }
         }
     }
-    Ok((edges, w))
+    (edges, w)
 }

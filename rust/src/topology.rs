@@ -75,7 +75,7 @@ impl Topology {
             .for_each(|(i, ((cols, slots), diag))| {
                 rows.build(i, |row| {
                     cols.copy_from_slice(row.cols);
-                    slots.copy_from_slice(row.slots);
+                    slots.as_flattened_mut().copy_from_slice(row.slots);
                     *diag = row.diagonal;
                 })
             });
@@ -111,13 +111,13 @@ impl Topology {
     }
 }
 
-/// One row of the pattern as built from the tets around its vertex.
+/// One row of the pattern as built from the elements around its vertex.
 pub(crate) struct Row<'a> {
     /// Sorted columns: the vertex and its neighbours.
     pub cols: &'a [u32],
-    /// For the k-th tet-corner around the vertex, the positions in `cols` of the other
-    /// three corners of its tet (ascending corner order).
-    pub slots: &'a [[u32; 3]],
+    /// For the q-th element-corner around the vertex, the positions in `cols` of the other
+    /// `K - 1` corners of its element (ascending corner order): `slots[(K-1) q ..]`.
+    pub slots: &'a [u32],
     /// Position of the vertex itself in `cols`.
     pub diagonal: u32,
 }
@@ -128,7 +128,7 @@ pub(crate) struct Row<'a> {
 struct Scratch {
     position: Vec<u32>,
     cols: Vec<u32>,
-    slots: Vec<[u32; 3]>,
+    slots: Vec<u32>,
     order: Vec<(u32, u32)>,
     rank: Vec<u32>,
 }
@@ -137,20 +137,21 @@ thread_local! {
     static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
 }
 
-/// The rows of a mesh's pattern, built on demand from the tets around each vertex.
-pub(crate) struct Rows<'a> {
-    tets: &'a [[u32; 4]],
+/// The rows of a mesh's pattern, built on demand from the elements (tets, `K = 4`, or
+/// triangles, `K = 3`) around each vertex.
+pub(crate) struct Rows<'a, const K: usize> {
+    tets: &'a [[u32; K]],
     pub corners: Incidence,
     pub indptr: Vec<usize>,
 }
 
-impl<'a> Rows<'a> {
+impl<'a, const K: usize> Rows<'a, K> {
     /// Counts every row (a first pass that deduplicates neighbours with the per-thread
     /// position array) and lays out `indptr`.
-    pub fn new(tets: &'a [[u32; 4]], n: usize) -> Result<Self> {
-        if tets.len() > (u32::MAX / 4) as usize {
+    pub fn new(tets: &'a [[u32; K]], n: usize) -> Result<Self> {
+        if tets.len() > u32::MAX as usize / K {
             return Err(Error::InvalidOption {
-                message: format!("{} tets: at most {} are supported", tets.len(), u32::MAX / 4),
+                message: format!("{} elements: at most {} are supported", tets.len(), u32::MAX as usize / K),
             });
         }
         let corners = corner_incidence(tets, n);
@@ -171,7 +172,7 @@ impl<'a> Rows<'a> {
     }
 
     /// Row `i` in order of first appearance: columns and the slots of every corner item.
-    fn build_unsorted<R>(&self, i: usize, f: impl FnOnce(&[u32], &[[u32; 3]]) -> R) -> R {
+    fn build_unsorted<R>(&self, i: usize, f: impl FnOnce(&[u32], &[u32]) -> R) -> R {
         SCRATCH.with(|scratch| {
             let s = &mut *scratch.borrow_mut();
             let n = self.corners.offsets.len() - 1;
@@ -183,16 +184,15 @@ impl<'a> Rows<'a> {
             s.position[i] = 0;
             s.cols.push(i as u32);
             for &k in self.corners.of(i) {
-                let (tet, c) = (&self.tets[k as usize / 4], k as usize % 4);
-                let slot = OTHERS[c].map(|o| {
+                let (tet, c) = (&self.tets[k as usize / K], k as usize % K);
+                for o in (0..K).filter(|&o| o != c) {
                     let v = tet[o] as usize;
                     if s.position[v] == u32::MAX {
                         s.position[v] = s.cols.len() as u32;
                         s.cols.push(v as u32);
                     }
-                    s.position[v]
-                });
-                s.slots.push(slot);
+                    s.slots.push(s.position[v]);
+                }
             }
             for &v in &s.cols {
                 s.position[v as usize] = u32::MAX;
@@ -215,7 +215,7 @@ impl<'a> Rows<'a> {
                 s.cols[pos] = v;
             }
             for slot in s.slots.iter_mut() {
-                *slot = slot.map(|k| s.rank[k as usize]);
+                *slot = s.rank[*slot as usize];
             }
             let diagonal = s.rank[0];
             f(Row { cols: &s.cols, slots: &s.slots, diagonal })
@@ -249,7 +249,7 @@ pub fn boundary_tets(tets: &[[u32; 4]]) -> Vec<bool> {
 
 /// Tet-corners per vertex (ascending corner ids within each vertex), by a counting sort
 /// parallel over vertex ranges: every worker scans all corners and keeps its own range.
-fn corner_incidence(tets: &[[u32; 4]], n: usize) -> Incidence {
+fn corner_incidence<const K: usize>(tets: &[[u32; K]], n: usize) -> Incidence {
     let corners = tets.as_flattened();
     let parts = (rayon::current_num_threads() * 2).clamp(1, n.max(1));
     let bounds: Vec<usize> = (0..=parts).map(|p| p * n / parts).collect();

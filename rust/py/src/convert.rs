@@ -7,13 +7,19 @@ use numpy::{
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
-use tetlap::{Boundary, Csr, Degenerate, LaplacianKind, MassKind, Options, TetMesh};
+use tetlap::{Boundary, Coo, Csr, Degenerate, LaplacianKind, Mass, MassKind, Options, TetMesh, TriMesh};
 
-/// Owned copies of the points, the validated `u32` tets and the optional vertex weights.
+/// The elements of a mesh: tets or triangles.
+pub enum Cells {
+    Tets(Vec<[u32; 4]>),
+    Tris(Vec<[u32; 3]>),
+}
+
+/// Owned copies of the points, the validated `u32` elements and the optional weights.
 pub struct Input {
     pub points: Vec<f64>,
     pub dim: usize,
-    pub tets: Vec<[u32; 4]>,
+    pub cells: Cells,
     pub weights: Option<Vec<f64>>,
 }
 
@@ -21,28 +27,82 @@ impl Input {
     pub fn new(
         py: Python<'_>,
         points: &PyReadonlyArray2<'_, f64>,
-        tets: &PyReadonlyArray2<'_, i64>,
+        cells: &PyReadonlyArray2<'_, i64>,
         weights: Option<&PyReadonlyArray1<'_, f64>>,
     ) -> PyResult<Self> {
         let [n, dim] = [points.shape()[0], points.shape()[1]];
-        if tets.shape()[1] != 4 {
-            return Err(PyValueError::new_err("tets must have shape (m, 4)"));
-        }
         // The Python layer hands over C-contiguous arrays: plain slice copies.
         let points = contiguous(points)?.to_vec();
-        let tets = tetlap::elements_from_i64::<4>(contiguous(tets)?, n).map_err(|e| to_py(py, e))?;
+        let flat = contiguous(cells)?;
+        let cells = match cells.shape()[1] {
+            4 => Cells::Tets(tetlap::elements_from_i64::<4>(flat, n).map_err(|e| to_py(py, e))?),
+            3 => Cells::Tris(tetlap::elements_from_i64::<3>(flat, n).map_err(|e| to_py(py, e))?),
+            k => return Err(PyValueError::new_err(format!("elements must have 3 or 4 columns, got {k}"))),
+        };
         let weights = weights.map(|w| w.as_slice().map(|w| w.to_vec())).transpose().map_err(|_| {
             PyValueError::new_err("weights must be C-contiguous")
         })?;
-        Ok(Input { points, dim, tets, weights })
+        Ok(Input { points, dim, cells, weights })
     }
 
-    /// The validated mesh view (finiteness, dimensions, repeated vertices, weights).
-    pub fn mesh(&self) -> tetlap::Result<TetMesh<'_>> {
-        let mesh = TetMesh::new(&self.points, self.dim, &self.tets)?;
+    /// The tets, or an error for a triangle mesh (what only tets support).
+    pub fn tets(self) -> PyResult<(Vec<f64>, usize, Vec<[u32; 4]>, Option<Vec<f64>>)> {
+        match self.cells {
+            Cells::Tets(t) => Ok((self.points, self.dim, t, self.weights)),
+            Cells::Tris(_) => Err(PyValueError::new_err("this needs a tet mesh, (m, 4) elements")),
+        }
+    }
+
+    fn tet_mesh<'a>(&'a self, tets: &'a [[u32; 4]]) -> tetlap::Result<TetMesh<'a>> {
+        let mesh = TetMesh::new(&self.points, self.dim, tets)?;
         match &self.weights {
             Some(w) => mesh.with_weights(w),
             None => Ok(mesh),
+        }
+    }
+
+    fn tri_mesh<'a>(&'a self, tris: &'a [[u32; 3]]) -> tetlap::Result<TriMesh<'a>> {
+        if self.weights.is_some() {
+            return Err(tetlap::Error::InvalidOption {
+                message: "vertex weights are supported for tet meshes only".into(),
+            });
+        }
+        TriMesh::new(&self.points, self.dim, tris)
+    }
+
+    pub fn laplacian(&self, lap: LaplacianKind, opts: &Options) -> tetlap::Result<Csr> {
+        match &self.cells {
+            Cells::Tets(t) => tetlap::laplacian(&self.tet_mesh(t)?, lap, opts),
+            Cells::Tris(t) => tetlap::tri_laplacian(&self.tri_mesh(t)?, lap, opts),
+        }
+    }
+
+    pub fn mass(&self, kind: MassKind, opts: &Options) -> tetlap::Result<Mass> {
+        match &self.cells {
+            Cells::Tets(t) => tetlap::mass(&self.tet_mesh(t)?, kind, opts),
+            Cells::Tris(t) => tetlap::tri_mass(&self.tri_mesh(t)?, kind, opts),
+        }
+    }
+
+    pub fn operators(&self, lap: LaplacianKind, kind: MassKind, opts: &Options) -> tetlap::Result<(Csr, Mass)> {
+        match &self.cells {
+            Cells::Tets(t) => tetlap::operators(&self.tet_mesh(t)?, lap, kind, opts),
+            Cells::Tris(t) => tetlap::tri_operators(&self.tri_mesh(t)?, lap, kind, opts),
+        }
+    }
+
+    /// Per-element weights, flat, and the number of local edges (6 or 3).
+    pub fn contributions(&self, lap: LaplacianKind, opts: &Options) -> tetlap::Result<(Vec<f64>, usize)> {
+        Ok(match &self.cells {
+            Cells::Tets(t) => (tetlap::tet_contributions(&self.tet_mesh(t)?, lap, opts)?.into_flattened(), 6),
+            Cells::Tris(t) => (tetlap::tri_contributions(&self.tri_mesh(t)?, lap, opts)?.into_flattened(), 3),
+        })
+    }
+
+    pub fn triplets(&self, lap: LaplacianKind, opts: &Options) -> tetlap::Result<Coo> {
+        match &self.cells {
+            Cells::Tets(t) => tetlap::triplets(&self.tet_mesh(t)?, lap, opts),
+            Cells::Tris(t) => tetlap::tri_triplets(&self.tri_mesh(t)?, lap, opts),
         }
     }
 }

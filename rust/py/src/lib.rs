@@ -15,7 +15,7 @@ use pyo3::prelude::*;
 mod _core {
     use crate::convert::{csr_arrays, rows, Input, RawOptions, Spec};
     use crate::errors::guarded;
-    use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
+    use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
     use pyo3::prelude::*;
     use pyo3::types::PyTuple;
     use tetlap::Mass;
@@ -41,7 +41,7 @@ mod _core {
     ) -> PyResult<Bound<'py, PyTuple>> {
         let input = Input::new(py, &points, &tets, weights.as_ref())?;
         let spec = Spec::new(Some((kind, t)), None, &options)?;
-        let l = guarded(py, move || tetlap::laplacian(&input.mesh()?, spec.lap(), &spec.opts))?;
+        let l = guarded(py, move || input.laplacian(spec.lap(), &spec.opts))?;
         csr_arrays(py, l)
     }
 
@@ -58,7 +58,7 @@ mod _core {
     ) -> PyResult<Bound<'py, PyTuple>> {
         let input = Input::new(py, &points, &tets, weights.as_ref())?;
         let spec = Spec::new(None, Some(kind), &options)?;
-        let m = guarded(py, move || tetlap::mass(&input.mesh()?, spec.mass(), &spec.opts))?;
+        let m = guarded(py, move || input.mass(spec.mass(), &spec.opts))?;
         mass_arrays(py, m)
     }
 
@@ -77,13 +77,11 @@ mod _core {
     ) -> PyResult<Bound<'py, PyTuple>> {
         let input = Input::new(py, &points, &tets, weights.as_ref())?;
         let spec = Spec::new(Some((kind, t)), Some(mass_kind), &options)?;
-        let (l, m) = guarded(py, move || {
-            tetlap::operators(&input.mesh()?, spec.lap(), spec.mass(), &spec.opts)
-        })?;
+        let (l, m) = guarded(py, move || input.operators(spec.lap(), spec.mass(), &spec.opts))?;
         PyTuple::new(py, [csr_arrays(py, l)?, mass_arrays(py, m)?])
     }
 
-    /// Per-tet edge weights, `(m, 6)` float64.
+    /// Per-element edge weights, `(m, 6)` (tets) or `(m, 3)` (triangles) float64.
     #[pyfunction]
     #[pyo3(signature = (points, tets, weights, kind, t, options))]
     fn tet_contributions<'py>(
@@ -97,13 +95,12 @@ mod _core {
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let input = Input::new(py, &points, &tets, weights.as_ref())?;
         let spec = Spec::new(Some((kind, t)), None, &options)?;
-        let w = guarded(py, move || {
-            tetlap::tet_contributions(&input.mesh()?, spec.lap(), &spec.opts)
-        })?;
-        rows(py, w)
+        let (w, k) = guarded(py, move || input.contributions(spec.lap(), &spec.opts))?;
+        let m = w.len() / k;
+        PyArray1::from_vec(py, w).reshape([m, k])
     }
 
-    /// Unsummed triplets `(rows, cols, vals)`, 16 per tet.
+    /// Unsummed triplets `(rows, cols, vals)`, 16 per tet or 9 per triangle.
     #[pyfunction]
     #[pyo3(signature = (points, tets, weights, kind, t, options))]
     fn triplets<'py>(
@@ -117,8 +114,7 @@ mod _core {
     ) -> PyResult<Bound<'py, PyTuple>> {
         let input = Input::new(py, &points, &tets, weights.as_ref())?;
         let spec = Spec::new(Some((kind, t)), None, &options)?;
-        let coo =
-            guarded(py, move || tetlap::triplets(&input.mesh()?, spec.lap(), &spec.opts))?;
+        let coo = guarded(py, move || input.triplets(spec.lap(), &spec.opts))?;
         let as_i64 = |v: Vec<u32>| v.into_iter().map(i64::from).collect::<Vec<_>>();
         PyTuple::new(
             py,
@@ -144,8 +140,9 @@ mod _core {
     ) -> PyResult<Bound<'py, PyTuple>> {
         let input = Input::new(py, &points, &tets, weights.as_ref())?;
         let spec = Spec::new(Some((kind, t)), None, &options)?;
-        let (edges, w) =
-            guarded(py, move || tetlap::edge_weights(&input.mesh()?, spec.lap(), &spec.opts))?;
+        let (edges, w) = guarded(py, move || {
+            input.laplacian(spec.lap(), &spec.opts).map(|l| tetlap::upper_triangle(&l))
+        })?;
         let edges: Vec<[i64; 2]> = edges.into_iter().map(|e| e.map(i64::from)).collect();
         PyTuple::new(py, [rows(py, edges)?.into_any(), PyArray1::from_vec(py, w).into_any()])
     }

@@ -26,7 +26,7 @@ impl PyMesh {
         weights: Option<PyReadonlyArray1<'_, f64>>,
         options: RawOptions,
     ) -> PyResult<Self> {
-        let Input { points, dim, tets, weights } = Input::new(py, &points, &tets, weights.as_ref())?;
+        let (points, dim, tets, weights) = Input::new(py, &points, &tets, weights.as_ref())?.tets()?;
         let opts = Spec::new(None, None, &options)?.opts;
         let inner =
             guarded(py, move || tetlap::Mesh::with_weights(points, dim, tets, weights, opts))?;

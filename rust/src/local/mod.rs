@@ -9,11 +9,13 @@ mod centers;
 mod dual;
 mod mass;
 mod primal;
+mod tri;
 
 pub use centers::{dual_from_centers, Centers};
 pub use dual::{dual, Dual};
 pub use mass::{barycentric_mass, fem_mass};
 pub use primal::primal_weights;
+pub use tri::{cotan_weights, tri_area, tri_dual, tri_is_degenerate, TRI_EDGES};
 
 use crate::geometry::LocalTet;
 use glam::DVec3;
