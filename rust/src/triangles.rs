@@ -80,7 +80,7 @@ fn with_rows<'a, T: Send>(
 /// let points = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0];
 /// let mesh = TriMesh::new(&points, 2, &[[0, 1, 2]])?;
 /// let l = tri_laplacian(&mesh, LaplacianKind::Primal, &Options::default())?;
-/// assert!((l.get(1, 2) - 0.5).abs() < 1e-15 && l.get(0, 1).abs() < 1e-15);
+/// assert!((l.get(0, 1) - 0.5).abs() < 1e-15 && l.get(1, 2).abs() < 1e-15);
 /// # Ok::<(), tetlap::Error>(())
 /// ```
 pub fn tri_laplacian(mesh: &TriMesh, kind: LaplacianKind, opts: &Options) -> Result<Csr> {

@@ -34,7 +34,7 @@ pub fn tri_area(t: &LocalTri) -> f64 {
 /// ```
 /// let x = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
 /// let w = tetlap::local::cotan_weights(&tetlap::local_tri([&x[0], &x[1], &x[2]]));
-/// assert!((w[0] - 0.0).abs() < 1e-15 && (w[2] - 0.5).abs() < 1e-15); // the right angle at 0
+/// assert!((w[0] - 0.5).abs() < 1e-15 && w[2].abs() < 1e-15); // edge (1,2) faces the right angle
 /// ```
 pub fn cotan_weights(t: &LocalTri) -> [f64; 3] {
     let x = corners(t);
