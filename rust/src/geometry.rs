@@ -30,6 +30,43 @@ fn scale_exponent(x: f64) -> i32 {
     ((x.to_bits() >> 52) & 0x7ff) as i32 - 1022
 }
 
+/// How to scale the differences `x_k - x_0` exactly: `(x_k pre - x_0 pre) inv`, with
+/// `scale = 1 / (pre inv)` the power of two divided out.
+struct Normalisation {
+    pre: f64,
+    inv: f64,
+    scale: f64,
+}
+
+/// The normalisation that brings the largest difference `|x_k - x_0|` into `[1/2, 1)`,
+/// or `None` when all points coincide. Differences that overflow or come close are
+/// prescaled by 2^-600, differences near the subnormal range by 2^600 (exact).
+fn normalisation(x: &[&[f64]]) -> Option<Normalisation> {
+    let max_diff = |pre: f64| {
+        let mut m = 0.0f64;
+        for xk in &x[1..] {
+            for (a, b) in xk.iter().zip(x[0]) {
+                m = m.max((a * pre - b * pre).abs());
+            }
+        }
+        m
+    };
+    let mut pre = 1.0;
+    let mut max_abs = max_diff(pre);
+    if !(max_abs < pow2(1000)) {
+        pre = pow2(-600);
+        max_abs = max_diff(pre);
+    } else if max_abs < pow2(-1000) && max_abs > 0.0 {
+        pre = pow2(600);
+        max_abs = max_diff(pre);
+    }
+    if max_abs == 0.0 {
+        return None;
+    }
+    let k = scale_exponent(max_abs);
+    Some(Normalisation { pre, inv: pow2(-k), scale: pow2(k) / pre })
+}
+
 /// Edge vectors of a tet in R^d (`d = x[0].len()`), in its own 3-space, scaled.
 ///
 /// `scratch` must hold at least `3 * d` values when `d > 3` (unused for `d = 3`).
@@ -47,33 +84,9 @@ pub fn local_tet(x: [&[f64]; 4], scratch: &mut [f64]) -> LocalTet {
             return LocalTet { edges: e.map(|v| v * inv), scale: pow2(k) };
         }
     }
-    let max_diff = |pre: f64| {
-        let mut m = 0.0f64;
-        for xk in &x[1..] {
-            for c in 0..d {
-                m = m.max((xk[c] * pre - x[0][c] * pre).abs());
-            }
-        }
-        m
-    };
-    // Bring the largest difference into the normal range without rounding anything that
-    // matters: a prescale by 2^-600 for differences that overflow or come close,
-    // by 2^600 for differences near the subnormal range.
-    let mut pre = 1.0;
-    let mut max_abs = max_diff(pre);
-    if !(max_abs < pow2(1000)) {
-        pre = pow2(-600);
-        max_abs = max_diff(pre);
-    } else if max_abs < pow2(-1000) && max_abs > 0.0 {
-        pre = pow2(600);
-        max_abs = max_diff(pre);
-    }
-    if max_abs == 0.0 {
+    let Some(Normalisation { pre, inv, scale }) = normalisation(&x) else {
         return LocalTet { edges: [DVec3::ZERO; 3], scale: 1.0 };
-    }
-    let k = scale_exponent(max_abs);
-    let inv = pow2(-k);
-    let scale = pow2(k) / pre;
+    };
     let diff = |k: usize, c: usize| (x[k][c] * pre - x[0][c] * pre) * inv;
     if d == 3 {
         let e = |k| DVec3::new(diff(k, 0), diff(k, 1), diff(k, 2));
@@ -128,30 +141,9 @@ pub struct LocalTri {
 /// [`local_tet`] (a QR factorisation of the 2 x d edge matrix; no scratch needed).
 pub fn local_tri(x: [&[f64]; 3]) -> LocalTri {
     let d = x[0].len();
-    let max_diff = |pre: f64| {
-        let mut m = 0.0f64;
-        for xk in &x[1..] {
-            for c in 0..d {
-                m = m.max((xk[c] * pre - x[0][c] * pre).abs());
-            }
-        }
-        m
-    };
-    let mut pre = 1.0;
-    let mut max_abs = max_diff(pre);
-    if !(max_abs < pow2(1000)) {
-        pre = pow2(-600);
-        max_abs = max_diff(pre);
-    } else if max_abs < pow2(-1000) && max_abs > 0.0 {
-        pre = pow2(600);
-        max_abs = max_diff(pre);
-    }
-    if max_abs == 0.0 {
+    let Some(Normalisation { pre, inv, scale }) = normalisation(&x) else {
         return LocalTri { edges: [DVec2::ZERO; 2], scale: 1.0 };
-    }
-    let k = scale_exponent(max_abs);
-    let inv = pow2(-k);
-    let scale = pow2(k) / pre;
+    };
     let diff = |k: usize, c: usize| (x[k][c] * pre - x[0][c] * pre) * inv;
     if d == 2 {
         return LocalTri {

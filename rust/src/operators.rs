@@ -33,12 +33,13 @@ impl Mass {
 /// Consistent P1 mass of a tet: `Vol / 20` off the diagonal, `Vol / 10` on it.
 const FEM_TET: (f64, f64) = (20.0, 10.0);
 
-/// Per-tet pass and row layout, side by side.
-fn with_rows<'a, T: Send>(
-    mesh: &TetMesh<'a>,
+/// Per-element pass and row layout of `elements` over `n` vertices, side by side.
+pub(crate) fn with_rows<'a, T: Send, const K: usize>(
+    elements: &'a [[u32; K]],
+    n: usize,
     pass: impl FnOnce() -> Result<T> + Send,
-) -> Result<(T, Rows<'a, 4>)> {
-    let (values, rows) = rayon::join(pass, || Rows::new(mesh.tets(), mesh.n_vertices()));
+) -> Result<(T, Rows<'a, K>)> {
+    let (values, rows) = rayon::join(pass, || Rows::new(elements, n));
     Ok((values?, rows?))
 }
 
@@ -82,7 +83,7 @@ pub(crate) fn assemble<const K: usize, const E: usize>(
 pub fn laplacian(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<Csr> {
     check_kind(kind)?;
     run(opts.threads, || {
-        let (w, rows) = with_rows(mesh, || {
+        let (w, rows) = with_rows(mesh.tets(), mesh.n_vertices(), || {
             let mut w = vec![[0.0; 6]; mesh.n_tets()];
             per_tet(&Elements::new(*mesh, opts), opts.degenerate, &mut w, |t| weights(t, kind)).map(|_| w)
         })?;
@@ -102,7 +103,7 @@ pub fn laplacian(mesh: &TetMesh, kind: LaplacianKind, opts: &Options) -> Result<
 /// ```
 pub fn mass(mesh: &TetMesh, kind: MassKind, opts: &Options) -> Result<Mass> {
     run(opts.threads, || {
-        let (m, rows) = with_rows(mesh, || {
+        let (m, rows) = with_rows(mesh.tets(), mesh.n_vertices(), || {
             let mut m = vec![[0.0; 4]; mesh.n_tets()];
             per_tet(&Elements::new(*mesh, opts), opts.degenerate, &mut m, |t| corner_mass(t, kind)).map(|_| m)
         })?;
@@ -119,7 +120,7 @@ pub fn operators(
 ) -> Result<(Csr, Mass)> {
     check_kind(lap)?;
     run(opts.threads, || {
-        let ((w, m), rows) = with_rows(mesh, || {
+        let ((w, m), rows) = with_rows(mesh.tets(), mesh.n_vertices(), || {
             let (mut w, mut m) = (vec![[0.0; 6]; mesh.n_tets()], vec![[0.0; 4]; mesh.n_tets()]);
             per_tet_pair(&Elements::new(*mesh, opts), opts.degenerate, &mut w, &mut m, |t| {
                 weights_and_mass(t, lap, mass)

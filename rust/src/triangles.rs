@@ -7,8 +7,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{local_tri, LocalTri};
 use crate::local::{cotan_weights, tri_area, tri_dual, tri_is_degenerate, TRI_EDGES};
 use crate::mesh::TriMesh;
-use crate::operators::{assemble, Mass};
-use crate::topology::Rows;
+use crate::operators::{assemble, with_rows, Mass};
 
 /// Consistent P1 mass of a triangle: `A / 12` off the diagonal, `A / 6` on it.
 const FEM_TRI: (f64, f64) = (12.0, 6.0);
@@ -64,14 +63,6 @@ fn corner_mass(t: &LocalTri, kind: MassKind) -> std::result::Result<[f64; 3], Fa
     })
 }
 
-fn with_rows<'a, T: Send>(
-    mesh: &TriMesh<'a>,
-    pass: impl FnOnce() -> Result<T> + Send,
-) -> Result<(T, Rows<'a, 3>)> {
-    let (values, rows) = rayon::join(pass, || Rows::new(mesh.triangles(), mesh.n_vertices()));
-    Ok((values?, rows?))
-}
-
 /// The cotan Laplacian of a triangle mesh: `L[i,j] = (cot a + cot b) / 2`,
 /// `L[i,i] = -sum_j L[i,j]`. `kind` may be primal or dual (equal up to rounding) or affine.
 ///
@@ -86,7 +77,7 @@ fn with_rows<'a, T: Send>(
 pub fn tri_laplacian(mesh: &TriMesh, kind: LaplacianKind, opts: &Options) -> Result<Csr> {
     check_kind(kind)?;
     run(opts.threads, || {
-        let (w, rows) = with_rows(mesh, || {
+        let (w, rows) = with_rows(mesh.triangles(), mesh.n_vertices(), || {
             let mut w = vec![[0.0; 3]; mesh.n_triangles()];
             per_tet(mesh, opts.degenerate, &mut w, |t| weights(t, kind)).map(|_| w)
         })?;
@@ -98,7 +89,7 @@ pub fn tri_laplacian(mesh: &TriMesh, kind: LaplacianKind, opts: &Options) -> Res
 /// areas) or consistent P1 (`A (1 + delta) / 12`).
 pub fn tri_mass(mesh: &TriMesh, kind: MassKind, opts: &Options) -> Result<Mass> {
     run(opts.threads, || {
-        let (m, rows) = with_rows(mesh, || {
+        let (m, rows) = with_rows(mesh.triangles(), mesh.n_vertices(), || {
             let mut m = vec![[0.0; 3]; mesh.n_triangles()];
             per_tet(mesh, opts.degenerate, &mut m, |t| corner_mass(t, kind)).map(|_| m)
         })?;
@@ -110,7 +101,7 @@ pub fn tri_mass(mesh: &TriMesh, kind: MassKind, opts: &Options) -> Result<Mass> 
 pub fn tri_operators(mesh: &TriMesh, lap: LaplacianKind, mass: MassKind, opts: &Options) -> Result<(Csr, Mass)> {
     check_kind(lap)?;
     run(opts.threads, || {
-        let ((w, m), rows) = with_rows(mesh, || {
+        let ((w, m), rows) = with_rows(mesh.triangles(), mesh.n_vertices(), || {
             let (mut w, mut m) = (vec![[0.0; 3]; mesh.n_triangles()], vec![[0.0; 3]; mesh.n_triangles()]);
             per_tet_pair(mesh, opts.degenerate, &mut w, &mut m, |t| Ok((weights(t, lap)?, corner_mass(t, mass)?)))
                 .map(|_| (w, m))
