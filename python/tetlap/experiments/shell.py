@@ -37,12 +37,12 @@ def measure(V, T, spheres) -> dict:
 
 def run(out) -> None:
     quick, seed = out.quick, out.seed
-    sizes = [3000, 9000] if quick else [4000, 16000, 64000]
+    sizes = [3000, 9000] if quick else [4000, 12000, 36000]
     seeds = [seed] if quick else [seed, seed + 1, seed + 2]
-    heights = [0.12, 0.08] if quick else [0.12, 0.08, 0.05, 0.035]
-    weighted_n = 3000 if quick else 32000
-    scales = [0.0, 0.1, 0.3, 1.0] if quick else [0.0, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0]
-    weighted_seeds = range(seed, seed + (3 if quick else 10))
+    heights = [0.12, 0.08] if quick else [0.12, 0.08, 0.055]
+    weighted_n = 3000 if quick else 9000
+    scales = [0.0, 0.1, 0.3, 1.0] if quick else [0.0, 0.05, 0.1, 0.3, 1.0, 2.0]
+    weighted_seeds = range(seed, seed + (3 if quick else 8))
 
     jobs = [("random Delaunay", n, s, 0.0) for n in sizes for s in seeds]
     jobs += [("weighted Delaunay", weighted_n, s, w) for w in scales for s in weighted_seeds]
