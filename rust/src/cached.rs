@@ -8,7 +8,7 @@ use crate::assemble::{
 };
 use crate::csr::Csr;
 use crate::error::{Error, Result};
-use crate::mesh::{check_points, TetMesh};
+use crate::mesh::TetMesh;
 use crate::operators::Mass;
 use crate::topology::Topology;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -177,9 +177,17 @@ impl Mesh {
     }
 
     /// Moves the vertices to `points` (same shape, finite) and refreshes every cached
-    /// operator. On error (a tet became degenerate under [`crate::Degenerate::Raise`],
-    /// non-finite or misshaped input) nothing changes.
+    /// operator (see [`Mesh::move_vertices`]).
     pub fn update(&mut self, points: &[f64]) -> Result<Update> {
+        let moved = self.moved_vertices(points)?;
+        let dim = self.dim;
+        let coords: Vec<f64> =
+            moved.iter().flat_map(|&v| &points[v as usize * dim..(v as usize + 1) * dim]).copied().collect();
+        self.move_vertices(&moved, &coords)
+    }
+
+    /// The vertices whose coordinates differ in `points` (same shape as the mesh's).
+    pub fn moved_vertices(&self, points: &[f64]) -> Result<Vec<u32>> {
         if points.len() != self.points.len() {
             return Err(Error::Shape {
                 message: format!(
@@ -191,17 +199,59 @@ impl Mesh {
                 ),
             });
         }
-        check_points(points, self.dim, 3)?;
         let dim = self.dim;
-        let moved: Vec<u32> = run(self.opts.threads, || {
+        run(self.opts.threads, || {
             (0..self.points.len() / dim)
                 .into_par_iter()
                 .filter(|&i| self.points[i * dim..(i + 1) * dim] != points[i * dim..(i + 1) * dim])
                 .map(|i| i as u32)
                 .collect()
-        })?;
-        // Beyond an eighth of the vertices the full parallel pass beats a patch.
-        let full = moved.len() > self.points.len() / dim / 8;
+        })
+    }
+
+    /// Moves the vertices `moved` (ascending, distinct) to `coords` (`dim` values each) and
+    /// refreshes every cached operator: only the tets around them are recomputed and only
+    /// the rows of those tets' corners re-summed (beyond an eighth of the vertices, all of
+    /// them, in parallel). On error (a tet became degenerate under
+    /// [`crate::Degenerate::Raise`], a non-finite coordinate, bad indices) nothing changes.
+    pub fn move_vertices(&mut self, moved: &[u32], coords: &[f64]) -> Result<Update> {
+        let (dim, n) = (self.dim, self.points.len() / self.dim);
+        if coords.len() != moved.len() * dim {
+            return Err(Error::Shape {
+                message: format!("{} coordinates for {} vertices of dimension {dim}", coords.len(), moved.len()),
+            });
+        }
+        if let Some(k) = moved.iter().position(|&v| v as usize >= n) {
+            let index = moved[k] as i64;
+            return Err(Error::IndexOutOfRange { element: k, corner: 0, index, n_vertices: n });
+        }
+        if moved.windows(2).any(|w| w[0] >= w[1]) {
+            return Err(Error::InvalidOption { message: "moved vertices must be ascending and distinct".into() });
+        }
+        if let Some(k) = coords.iter().position(|x| !x.is_finite()) {
+            let (vertex, coordinate) = (moved[k / dim] as usize, k % dim);
+            return Err(Error::NonFiniteCoordinate { vertex, coordinate, value: coords[k] });
+        }
+        // Patch the coordinates in place, remembering the old ones to undo a failure.
+        let span = |v: u32| v as usize * dim..(v as usize + 1) * dim;
+        let old: Vec<f64> = moved.iter().flat_map(|&v| &self.points[span(v)]).copied().collect();
+        let write = |points: &mut [f64], values: &[f64]| {
+            for (&v, c) in moved.iter().zip(values.chunks_exact(dim)) {
+                points[span(v)].copy_from_slice(c);
+            }
+        };
+        write(&mut self.points, coords);
+        let result = self.refresh(moved);
+        if result.is_err() {
+            write(&mut self.points, &old);
+        }
+        result
+    }
+
+    /// Recomputes the cached operators after `moved` changed (coordinates already in place).
+    fn refresh(&mut self, moved: &[u32]) -> Result<Update> {
+        let n = self.points.len() / self.dim;
+        let full = moved.len() > n / 8;
         let topo = &self.topology;
         let (mut tets, mut rows) = (Vec::new(), Vec::new());
         if !full {
@@ -212,7 +262,7 @@ impl Mesh {
             rows.sort_unstable();
             rows.dedup();
         }
-        let new = self.elements(points);
+        let new = self.elements(&self.points);
         let opts = self.opts;
         let (laplacians, masses) = run(opts.threads, || -> Result<_> {
             if full {
@@ -223,7 +273,6 @@ impl Mesh {
             Ok((l, m))
         })??;
         // Nothing failed: commit.
-        self.points.copy_from_slice(points);
         let (topo, all) = (&self.topology, (!full).then_some(&rows[..]));
         run(opts.threads, || {
             for (cached, new) in self.laplacians.iter_mut().zip(laplacians) {
@@ -237,10 +286,9 @@ impl Mesh {
                 cached.values = mass_values(topo, cached.kind, &cached.per_tet, all, values);
             }
         })?;
-        let (n, m) = (self.points.len() / dim, self.tets.len());
         Ok(Update {
             moved_vertices: moved.len(),
-            recomputed_tets: if full { m } else { tets.len() },
+            recomputed_tets: if full { self.tets.len() } else { tets.len() },
             recomputed_rows: if full { n } else { rows.len() },
         })
     }

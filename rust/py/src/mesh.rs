@@ -59,15 +59,24 @@ impl PyMesh {
     }
 
     /// Moves the vertices; returns `(moved_vertices, recomputed_tets, recomputed_rows)`.
+    ///
+    /// The comparison with the current coordinates reads `points` in place, with the GIL
+    /// held (one pass, no copy); only the moved vertices' coordinates are copied, and the
+    /// recomputation runs without the GIL.
     fn update(&mut self, py: Python<'_>, points: PyReadonlyArray2<'_, f64>) -> PyResult<(usize, usize, usize)> {
         let dim = self.inner.dim();
+        let shape_error = |message: String| crate::errors::to_py(py, tetlap::Error::Shape { message });
         if points.shape()[1] != dim {
-            let message = format!("the new points must have {dim} columns, got {}", points.shape()[1]);
-            return Err(crate::errors::to_py(py, tetlap::Error::Shape { message }));
+            return Err(shape_error(format!("the new points must have {dim} columns, got {}", points.shape()[1])));
         }
-        let points = points.as_slice().map_err(|_| PyValueError::new_err("internal: arrays must be C-contiguous"))?.to_vec();
+        let new = points
+            .as_slice()
+            .map_err(|_| PyValueError::new_err("internal: arrays must be C-contiguous"))?;
+        let moved = self.inner.moved_vertices(new).map_err(|e| crate::errors::to_py(py, e))?;
+        let coords: Vec<f64> =
+            moved.iter().flat_map(|&v| &new[v as usize * dim..(v as usize + 1) * dim]).copied().collect();
         let inner = &mut self.inner;
-        let u = guarded(py, move || inner.update(&points))?;
+        let u = guarded(py, move || inner.move_vertices(&moved, &coords))?;
         Ok((u.moved_vertices, u.recomputed_tets, u.recomputed_rows))
     }
 
