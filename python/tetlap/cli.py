@@ -5,6 +5,7 @@
     tetlap assemble MESH -o L.npz  save L (and M to L.mass.npz) for scipy.sparse.load_npz
     tetlap bench [--sizes ...]     timings against the floor and installed baselines
     tetlap experiment NAME         the paper's experiments (CSV + PNG + summary)
+    tetlap distributed-info P T    (under mpirun) global checks with PETSc, from .npy files
 """
 
 from __future__ import annotations
@@ -194,7 +195,21 @@ def main(argv: list[str] | None = None) -> int:
     p_exp.add_argument("--out", help="output folder (default tetlap-experiments/NAME)")
     p_exp.add_argument("--seed", type=int, default=0)
     p_exp.add_argument("--meshes", help="negative-weights: a folder of mesh files")
+    p_dist = sub.add_parser("distributed-info",
+                            help="under mpirun: counts and checks with PETSc from .npy files")
+    p_dist.add_argument("points", help="(n, d) float .npy file")
+    p_dist.add_argument("tets", help="(m, 4) integer .npy file")
     args = parser.parse_args(argv)
+
+    if args.command == "distributed-info":
+        from . import distributed
+
+        result = distributed.info(args.points, args.tets)
+        from mpi4py import MPI
+
+        if MPI.COMM_WORLD.Get_rank() == 0:
+            print(json.dumps(result, indent=2))
+        return 0
 
     if args.command == "experiment":
         from . import experiments
