@@ -212,7 +212,8 @@ impl Mesh {
     /// Moves the vertices `moved` (ascending, distinct) to `coords` (`dim` values each) and
     /// refreshes every cached operator: only the tets around them are recomputed and only
     /// the rows of those tets' corners re-summed (beyond an eighth of the vertices, all of
-    /// them, in parallel). On error (a tet became degenerate under
+    /// them, in parallel). Degeneracy is checked by the cached operators (with none cached
+    /// yet, by the next request). On error (a tet became degenerate under
     /// [`crate::Degenerate::Raise`], a non-finite coordinate, bad indices) nothing changes.
     pub fn move_vertices(&mut self, moved: &[u32], coords: &[f64]) -> Result<Update> {
         let (dim, n) = (self.dim, self.points.len() / self.dim);
@@ -251,6 +252,10 @@ impl Mesh {
     /// Recomputes the cached operators after `moved` changed (coordinates already in place).
     fn refresh(&mut self, moved: &[u32]) -> Result<Update> {
         let n = self.points.len() / self.dim;
+        if self.laplacians.is_empty() && self.masses.is_empty() {
+            // nothing cached yet: the next request assembles from the new coordinates
+            return Ok(Update { moved_vertices: moved.len(), ..Update::default() });
+        }
         let full = moved.len() > n / 8;
         let topo = &self.topology;
         let (mut tets, mut rows) = (Vec::new(), Vec::new());
@@ -274,14 +279,15 @@ impl Mesh {
         })??;
         // Nothing failed: commit.
         let (topo, all) = (&self.topology, (!full).then_some(&rows[..]));
+        let listed = (!full).then_some(&tets[..]);
         run(opts.threads, || {
             for (cached, new) in self.laplacians.iter_mut().zip(laplacians) {
-                commit(&mut cached.per_tet, &tets, new);
+                commit(&mut cached.per_tet, listed, new);
                 let values = std::mem::take(&mut cached.values);
                 cached.values = laplacian_values(topo, &cached.per_tet, all, values);
             }
             for (cached, new) in self.masses.iter_mut().zip(masses) {
-                commit(&mut cached.per_tet, &tets, new);
+                commit(&mut cached.per_tet, listed, new);
                 let values = std::mem::take(&mut cached.values);
                 cached.values = mass_values(topo, cached.kind, &cached.per_tet, all, values);
             }
@@ -365,12 +371,14 @@ fn chunked<'a, T>(caches: &'a mut [Vec<T>], n_chunks: usize) -> Vec<Vec<&'a mut 
     chunks
 }
 
-fn commit<T: Copy>(per_tet: &mut Vec<T>, tets: &[u32], new: Vec<T>) {
-    if new.len() == per_tet.len() && tets.len() != new.len() {
-        *per_tet = new;
-    } else {
-        for (&t, v) in tets.iter().zip(new) {
-            per_tet[t as usize] = v;
+/// Stores new per-tet values: all of them (`tets = None`) or those of the listed tets.
+fn commit<T: Copy>(per_tet: &mut Vec<T>, tets: Option<&[u32]>, new: Vec<T>) {
+    match tets {
+        None => *per_tet = new,
+        Some(tets) => {
+            for (&t, v) in tets.iter().zip(new) {
+                per_tet[t as usize] = v;
+            }
         }
     }
 }
