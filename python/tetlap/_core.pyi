@@ -5,10 +5,14 @@
 # (threads: int | None, degenerate: "raise" | "skip", boundary: "circumcentric" |
 # "barycentric").
 # CSR triples are (data float64, indices uint32 (< 2^31), indptr int32|int64).
-from typing import Literal
+from typing import Literal, final
 
 import numpy as np
 import numpy.typing as npt
+from typing_extensions import Self
+
+__all__ = ["laplacian", "mass", "operators", "tet_contributions", "triplets", "edge_weights",
+           "_panic_inside_guard", "Mesh"]
 
 _F64 = npt.NDArray[np.float64]
 _Idx = npt.NDArray[np.int32] | npt.NDArray[np.int64]
@@ -34,9 +38,10 @@ def edge_weights(points: _F64, tets: _Tets, weights: _Weights, kind: str, t: flo
 
 def _panic_inside_guard(message: str) -> None: ...  # test hook: raises InternalError
 
+@final
 class Mesh:
-    def __init__(self, points: _F64, tets: _Tets, weights: _Weights,
-                 options: _Options) -> None: ...
+    def __new__(cls, points: _F64, tets: _Tets, weights: _Weights,
+                options: _Options) -> Self: ...
     def pattern(self) -> tuple[npt.NDArray[np.uint32], _Idx]: ...
     def laplacian(self, kind: str, t: float) -> _F64: ...
     def mass(self, kind: str) -> _F64: ...
