@@ -132,3 +132,10 @@ def test_bench_quick_smoke():
     cases = {r["case"] for r in records}
     assert {"floor", "tetlap primal", "tetlap dual", "Mesh: update 20 vertices"} <= cases
     assert all(r["median_s"] > 0 for r in records)
+
+
+def test_bench_operator_filter():
+    out = run("bench", "--sizes", "10k", "--repeat", "1", "--quick", "--json", "--operators", "dual")
+    assert out.returncode == 0, out.stderr
+    cases = {r["case"] for r in json.loads(out.stdout)}
+    assert "tetlap dual" in cases and "tetlap primal" not in cases and "floor" in cases

@@ -111,12 +111,19 @@ def _cases(V, T, threads, quick) -> dict[str, Callable[[], object]]:
     return cases
 
 
-def run(sizes=("100k",), threads=None, repeat=5, quick=False, progress=True) -> list[dict]:
-    """Time every case on every size; return one record per (size, case)."""
+def run(sizes=("100k",), threads=None, repeat=5, quick=False, progress=True,
+        only=None) -> list[dict]:
+    """Time every case (or those whose name contains a word of ``only``; the floor and
+    ``igl.cotmatrix`` always run, for the ratios) on every size; one record per
+    (size, case)."""
     records = []
     for size in sizes:
         V, T = meshes.cube(SIZES[size], jitter=0.2, seed=0)
         cases = _cases(V, T, threads, quick)
+        if only:
+            keep = ("floor", "igl.cotmatrix")
+            cases = {k: f for k, f in cases.items()
+                     if k in keep or any(word in k for word in only)}
         times: dict[str, list[float]] = {name: [] for name in cases}
         for r in range(repeat):
             if progress:
@@ -151,6 +158,6 @@ def table(records) -> str:
 def main(args) -> int:
     sizes = args.sizes or (["10k", "100k"] if args.quick else ["10k", "100k", "1M"])
     records = run(sizes, threads=args.threads, repeat=args.repeat or (3 if args.quick else 7),
-                  quick=args.quick)
+                  quick=args.quick, only=args.operators)
     print(json.dumps(records, indent=1) if args.json else table(records))
     return 0

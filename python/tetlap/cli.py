@@ -3,7 +3,7 @@
     tetlap info [MESH] [--json]    properties of both Laplacians on a mesh file
                                    (a built-in random Delaunay ball when MESH is omitted)
     tetlap assemble MESH -o L.npz  save L (and M to L.mass.npz) for scipy.sparse.load_npz
-    tetlap bench [--sizes ...]     timings against the floor and installed baselines
+    tetlap bench [--sizes ...] [--operators ...]  timings against the floor and baselines
     tetlap experiment NAME         the paper's experiments (CSV + PNG + summary)
     tetlap distributed-info P T    (under mpirun) global checks with PETSc, from .npy files
 """
@@ -186,6 +186,9 @@ def main(argv: list[str] | None = None) -> int:
                          help="Kuhn-grid sizes in tets (default 10k 100k 1M; --quick: 10k 100k)")
     p_bench.add_argument("--threads", type=int, default=None, help="worker threads (default: all)")
     p_bench.add_argument("--repeat", type=int, default=None, help="repetitions (median reported)")
+    p_bench.add_argument("--operators", nargs="+", metavar="WORD",
+                         help="only cases whose name contains a word, e.g. primal dual "
+                              "mass Mesh igl (the floor and igl.cotmatrix always run)")
     p_bench.add_argument("--quick", action="store_true", help="small sizes, fast baselines only")
     p_bench.add_argument("--json", action="store_true", help="print JSON records")
     p_exp = sub.add_parser("experiment", help="reproduce the paper's experiments")
