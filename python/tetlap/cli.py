@@ -165,7 +165,8 @@ def _assemble(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="tetlap", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="tetlap", description="Laplace operators of tetrahedral meshes (also: python -m tetlap).")
     sub = parser.add_subparsers(dest="command", required=True)
     p_info = sub.add_parser("info", help="properties of both Laplacians on a mesh")
     p_info.add_argument("mesh", nargs="?", help="mesh file (any format meshio reads)")
