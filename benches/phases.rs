@@ -3,7 +3,7 @@
 //! `cargo bench --bench phases` (medians of 11 runs on a 998,250-tet Kuhn grid).
 
 use std::time::Instant;
-use tetlap::{laplacian, operators, tet_contributions, LaplacianKind, MassKind, Options, TetMesh, Topology};
+use tetlap::{contributions, laplacian, operators, LaplacianKind, MassKind, Options, Tet, TetMesh, Topology};
 
 #[path = "grid.rs"]
 mod grid;
@@ -19,9 +19,9 @@ fn main() {
     let opts = Options::default();
     let n = points.len() / 3;
     let cases: Vec<(&str, Box<dyn Fn()>)> = vec![
-        ("cached topology (Topology::new)", Box::new(|| drop(Topology::new(&tets, n).unwrap()))),
-        ("kernels, primal", Box::new(|| drop(tet_contributions(&mesh, LaplacianKind::Primal, &opts).unwrap()))),
-        ("kernels, dual", Box::new(|| drop(tet_contributions(&mesh, LaplacianKind::Dual, &opts).unwrap()))),
+        ("cached topology (Topology::new)", Box::new(|| drop(Topology::new::<Tet>(&tets, n).unwrap()))),
+        ("kernels, primal", Box::new(|| drop(contributions(&mesh, LaplacianKind::Primal, &opts).unwrap()))),
+        ("kernels, dual", Box::new(|| drop(contributions(&mesh, LaplacianKind::Dual, &opts).unwrap()))),
         ("laplacian, primal", Box::new(|| drop(laplacian(&mesh, LaplacianKind::Primal, &opts).unwrap()))),
         ("laplacian, dual", Box::new(|| drop(laplacian(&mesh, LaplacianKind::Dual, &opts).unwrap()))),
         ("operators, dual + circumcentric", Box::new(|| {

@@ -130,8 +130,19 @@ def test_triangle_bad_input():
     assert np.isfinite(L.data).all()
     with pytest.raises(tetlap.OptionError, match="tet meshes only"):
         tetlap.laplacian([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], weights=[0, 0, 0])
-    with pytest.raises(tetlap.ShapeError):
-        tetlap.Mesh([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]])
+
+
+def test_cached_mesh_of_triangles_equals_one_shot():
+    V, T = grid()
+    mesh = tetlap.Mesh(V, T)
+    V2 = V.copy()
+    V2[len(V) // 2] += 0.01
+    mesh.laplacian("primal"), mesh.mass("circumcentric")
+    info = mesh.update(V2)
+    assert info.moved_vertices == 1 and 0 < info.recomputed_tets < len(T)
+    assert (mesh.laplacian("primal") != tetlap.laplacian(V2, T, "primal")).nnz == 0
+    assert (mesh.mass("circumcentric") != tetlap.mass(V2, T, "circumcentric")).nnz == 0
+    np.testing.assert_array_equal(mesh.T, T)
 
 
 def test_triplets_and_edges_for_triangles():

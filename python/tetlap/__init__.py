@@ -16,7 +16,7 @@ Sign convention (paper Eq. 1): ``L[i, j] = w_ij`` on edges, ``L[i, i] = -sum_j w
 """
 
 from . import diagnostics, meshes, solve
-from .cached import Mesh, UpdateInfo
+from .mesh import Mesh, UpdateInfo
 from .properties import Report, check
 from .errors import (
     DegenerateElementError,

@@ -1,12 +1,14 @@
-"""Conversion of user array-likes into the exact arrays the core takes, never in place."""
+"""Conversion of user array-likes into the exact arrays the core takes, never in place.
+
+Options (``kind``, ``boundary``, ``threads``, ...) are not checked here: the native module
+parses them into its own types and raises :class:`tetlap.OptionError` itself.
+"""
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 
-from .errors import DtypeError, EmptyMeshError, IndexRangeError, OptionError, ShapeError
+from .errors import DtypeError, EmptyMeshError, IndexRangeError, ShapeError
 
 _I64_MAX = np.iinfo(np.int64).max
 
@@ -61,52 +63,6 @@ def elements(T, n_columns=(3, 4)) -> np.ndarray:
             element=element, index=bad,
         )
     return np.ascontiguousarray(arr, dtype=np.int64)
-
-
-def laplacian_kind(kind) -> tuple[str, float]:
-    """``"primal"``, ``"dual"`` or a float ``t`` in [0, 1] as the core's ``(name, t)``."""
-    if isinstance(kind, str):
-        if kind in ("primal", "dual"):
-            return kind, 0.0
-        raise OptionError(f'kind must be "primal", "dual" or a float t in [0, 1], got {kind!r}')
-    if isinstance(kind, numbers.Real) and not isinstance(kind, bool):
-        t = float(kind)
-        if 0.0 <= t <= 1.0:
-            return "affine", t
-        raise OptionError(f"the affine parameter t must lie in [0, 1], got {kind!r}")
-    raise OptionError(f'kind must be "primal", "dual" or a float t in [0, 1], got {kind!r}')
-
-
-def mass_kind(kind) -> str:
-    if kind in ("barycentric", "circumcentric", "fem"):
-        return kind
-    raise OptionError(f'mass kind must be "barycentric", "circumcentric" or "fem", got {kind!r}')
-
-
-def threads(value) -> int | None:
-    if value is None:
-        return None
-    if isinstance(value, numbers.Integral) and not isinstance(value, bool) and value >= 1:
-        return int(value)
-    raise OptionError(f"threads must be None or an integer >= 1, got {value!r}")
-
-
-def degenerate(policy) -> str:
-    if policy in ("raise", "skip"):
-        return policy
-    raise OptionError(f'degenerate must be "raise" or "skip", got {policy!r}')
-
-
-def boundary(treatment) -> str:
-    if treatment in ("circumcentric", "barycentric"):
-        return treatment
-    raise OptionError(
-        f'boundary must be "circumcentric" or "barycentric", got {treatment!r}')
-
-
-def options(threads_, degenerate_, boundary_) -> tuple:
-    """The core's options tuple ``(threads, degenerate, boundary)``."""
-    return threads(threads_), degenerate(degenerate_), boundary(boundary_)
 
 
 def vertex_weights(w, n: int) -> np.ndarray | None:

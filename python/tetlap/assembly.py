@@ -1,33 +1,8 @@
-"""Laplacians and mass matrices of tetrahedral meshes as SciPy sparse arrays.
+"""Laplacians and mass matrices of tetrahedral (and triangle) meshes as SciPy arrays.
 
-Conventions (all functions)
----------------------------
-V : (n, d) array-like of real numbers, d >= 3 for tets, d >= 2 for triangles (larger d:
-    an immersed mesh; every element is computed in its own 3- or 2-space). Any real dtype;
-    converted to float64.
-T : (m, 4) tets or (m, 3) triangles: integer vertex indices, 0-based, any integer dtype,
-    any orientation: results do not depend on the orientation or vertex order of an
-    element. For triangles the primal (cotan, Eq. 6) and the dual (Eq. 16) coincide; the
-    local edge order is (0,1), (0,2), (1,2); ``boundary`` and ``weights`` are for tets.
-L : (n, n) ``scipy.sparse.csr_array``, float64, sorted indices, no duplicates, pattern
-    exactly the mesh edges plus the diagonal. Sign as in the paper (Eq. 1):
-    ``L[i, j] = w_ij`` on edges, ``L[i, i] = -sum_j w_ij``; rows sum to zero; the primal L
-    is negative semidefinite, and ``-L`` is the P1 stiffness matrix.
-kind : ``"primal"`` (P1 FEM / cotan, Eq. 7), ``"dual"`` (circumcentric DEC, Eq. 17-20),
-    or a float ``t`` in [0, 1] for ``(1 - t) L_primal + t L_dual`` (Sec. 9).
-boundary : ``"circumcentric"`` (default) or ``"barycentric"``: in tets with a boundary
-    face, dual vertices (tet and face circumcenters) outside their simplex are replaced by
-    centroids (paper Sec. 6). Positive circumcentric masses and dual weights in those tets;
-    linear precision is lost at their vertices. Affects the dual and circumcentric mass.
-weights : optional (n,) vertex weights (squared length units) for the dual and the
-    circumcentric mass: weighted circumcenters, i.e. the orthogonal dual of a regular
-    (weighted Delaunay) triangulation, a power diagram. ``None`` or zeros: the plain dual.
-degenerate : ``"raise"`` (default: a zero-volume tet raises
-    :class:`~tetlap.DegenerateElementError` naming it) or ``"skip"`` (such tets contribute
-    nothing; their edges stay in the pattern).
-threads : worker threads, ``None`` for all cores. Output is bitwise identical for any value.
-
-Inputs are never modified. The GIL is released during the computation.
+Every function takes the mesh ``(V, T)``, the operator kind and the same keyword options,
+documented in full in each function. Inputs are never modified; the GIL is released
+during the computation, which answers Ctrl-C.
 """
 
 from __future__ import annotations
@@ -37,7 +12,8 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
-from . import _arrays, _core
+from . import _arrays, _core, _sparse
+from ._docs import shared_docs
 
 __all__ = [
     "laplacian",
@@ -50,106 +26,123 @@ __all__ = [
 ]
 
 
-def _inputs(V, T, weights=None, boundary="circumcentric"):
+def _inputs(V, T, weights):
     V = _arrays.points(V)
     T = _arrays.elements(T)
-    if T.shape[1] == 3 and (weights is not None or boundary != "circumcentric"):
-        raise _arrays.OptionError("`weights` and `boundary` apply to tet meshes only")
     return V, T, _arrays.vertex_weights(weights, V.shape[0])
 
 
-def _csr(arrays, n: int) -> sp.csr_array:
-    """A canonical csr_array from the core's ``(data, uint32 indices, indptr)``, no copy."""
-    data, indices, indptr = arrays
-    indices = indices.view(np.int32) if indptr.dtype == np.int32 else indices.astype(np.int64)
-    A = sp.csr_array((data, indices, indptr), shape=(n, n), copy=False)
-    A.has_sorted_indices = True
-    A.has_canonical_format = True
-    return A
-
-
-def _mass(result, n: int) -> sp.csr_array:
-    form, arrays = result
-    if form == "lumped":
-        return sp.diags_array(arrays, format="csr")
-    return _csr(arrays, n)
-
-
+@shared_docs
 def laplacian(V, T, kind="primal", *, boundary="circumcentric", weights=None,
               degenerate="raise", threads=None) -> sp.csr_array:
-    """The (n, n) Laplacian of a tetrahedral mesh.
+    """The (n, n) Laplacian of a tetrahedral or triangle mesh.
 
     Parameters
     ----------
-    V : (n, d) array-like, d >= 3.  T : (m, 4) integer array-like.
-    kind : "primal" | "dual" | float t in [0, 1].  See the module docstring for all.
+    {mesh}
+    {kind}
+    {options}
 
     Returns
     -------
-    L : (n, n) csr_array, float64. ``L[i, j] = w_ij``, ``L[i, i] = -sum_j w_ij``.
+    L : (n, n) scipy.sparse.csr_array, float64
+        ``L[i, j] = w_ij`` on edges, ``L[i, i] = -sum_j w_ij`` (paper Eq. 1): rows sum to
+        zero, the primal ``L`` is negative semidefinite and ``-L`` is the P1 stiffness
+        matrix. Sorted indices, no duplicates; the pattern is exactly the mesh edges plus
+        the diagonal (an edge whose weights cancel keeps an explicit 0). Multiply with
+        ``L @ x`` (``L * x`` is elementwise for SciPy sparse arrays).
 
-    Example
-    -------
+    {raises}
+
+    Examples
+    --------
     >>> import tetlap
     >>> V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
     >>> L = tetlap.laplacian(V, [[0, 1, 2, 3]], kind="dual")
     >>> L[[0], :].toarray().round(4)
     array([[-0.75,  0.25,  0.25,  0.25]])
     """
-    V, T, w = _inputs(V, T, weights, boundary)
-    opts = _arrays.options(threads, degenerate, boundary)
-    name, t = _arrays.laplacian_kind(kind)
-    arrays = _core.laplacian(V, T, w, name, t, opts)
-    return _csr(arrays, V.shape[0])
+    V, T, w = _inputs(V, T, weights)
+    arrays = _core.laplacian(V, T, kind, weights=w, boundary=boundary, degenerate=degenerate,
+                             threads=threads)
+    return _sparse.csr(arrays, V.shape[0])
 
 
+@shared_docs
 def mass(V, T, kind="barycentric", *, boundary="circumcentric", weights=None,
          degenerate="raise", threads=None) -> sp.csr_array:
-    """The (n, n) mass matrix of a tetrahedral mesh.
+    """The (n, n) mass matrix of a tetrahedral or triangle mesh.
 
-    kind : ``"barycentric"`` (Eq. 3, ``Vol/4`` per tet corner, diagonal),
-        ``"circumcentric"`` (Eq. 4/21, signed dual-cell volumes ``Vol(*i)``, diagonal;
-        negative entries are possible on non-Delaunay meshes), or ``"fem"`` (consistent
-        P1 mass ``Vol (1 + delta_ab) / 20``, on the pattern of L).
-    Unreferenced vertices get 0. The entries sum to the mesh volume for every kind.
+    Parameters
+    ----------
+    {mesh}
+    {mass_kind}
+    {options}
 
-    Example
+    Returns
     -------
+    M : (n, n) scipy.sparse.csr_array, float64
+        Diagonal for the lumped kinds (unreferenced vertices get 0), on the pattern of
+        :func:`laplacian` for ``"fem"``. The entries sum to the mesh volume (area) for
+        every kind.
+
+    {raises}
+
+    Examples
+    --------
     >>> import tetlap
     >>> V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
     >>> tetlap.mass(V, [[0, 1, 2, 3]], kind="circumcentric").diagonal() * 72
     array([9., 1., 1., 1.])
     """
-    V, T, w = _inputs(V, T, weights, boundary)
-    opts = _arrays.options(threads, degenerate, boundary)
-    result = _core.mass(V, T, w, _arrays.mass_kind(kind), opts)
-    return _mass(result, V.shape[0])
+    V, T, w = _inputs(V, T, weights)
+    result = _core.mass(V, T, kind, weights=w, boundary=boundary, degenerate=degenerate,
+                        threads=threads)
+    return _sparse.mass(result, V.shape[0])
 
 
+@shared_docs
 def operators(V, T, laplacian="primal", mass="barycentric", *, boundary="circumcentric",
               weights=None, degenerate="raise",
               threads=None) -> tuple[sp.csr_array, sp.csr_array]:
-    """``(L, M)`` from one pass over the tets; same conventions as :func:`laplacian`
-    and :func:`mass`.
+    """The Laplacian and a mass matrix from one pass over the elements.
 
-    Example
+    Parameters
+    ----------
+    {mesh}
+    laplacian : {{"primal", "dual"}} or float, default "primal"
+        The Laplacian's kind, as ``kind`` of :func:`laplacian`.
+    mass : {{"barycentric", "circumcentric", "fem"}}, default "barycentric"
+        The mass matrix's kind, as ``kind`` of :func:`mass`.
+    {options}
+
+    Returns
     -------
+    L : (n, n) scipy.sparse.csr_array
+        As :func:`laplacian` returns it.
+    M : (n, n) scipy.sparse.csr_array
+        As :func:`mass` returns it.
+
+    {raises}
+
+    Examples
+    --------
     >>> import tetlap
     >>> V, T = tetlap.meshes.cube(2)
     >>> L, M = tetlap.operators(V, T, laplacian="dual", mass="circumcentric")
     >>> round(M.sum(), 12)
     1.0
     """
-    V, T, w = _inputs(V, T, weights, boundary)
-    opts = _arrays.options(threads, degenerate, boundary)
-    name, t = _arrays.laplacian_kind(laplacian)
-    L, M = _core.operators(V, T, w, name, t, _arrays.mass_kind(mass), opts)
+    V, T, w = _inputs(V, T, weights)
+    L, M = _core.operators(V, T, laplacian, mass, weights=w, boundary=boundary,
+                           degenerate=degenerate, threads=threads)
     n = V.shape[0]
-    return _csr(L, n), _mass(M, n)
+    return _sparse.csr(L, n), _sparse.mass(M, n)
 
 
 class Triplets(NamedTuple):
-    """Unsummed COO triplets: ``coo_array((vals, (rows, cols)), shape)`` sums them."""
+    """Unsummed COO triplets: ``scipy.sparse.coo_array((vals, (rows, cols)), shape)``
+    sums them."""
 
     rows: np.ndarray
     cols: np.ndarray
@@ -157,17 +150,29 @@ class Triplets(NamedTuple):
     shape: tuple[int, int]
 
 
+@shared_docs
 def triplets(V, T, kind="primal", *, boundary="circumcentric", weights=None,
              degenerate="raise", threads=None) -> Triplets:
-    """The Laplacian as unsummed triplets: 16 per tet (9 per triangle), its local Laplacian.
+    """The Laplacian as unsummed triplets: each element's local Laplacian.
 
-    Returns rows, cols (int64, shape (16 m,)), vals (float64) and shape (n, n); entry
-    ``16 t + 4 a + b`` belongs to corners ``a, b`` of tet ``t`` (``9 t + 3 a + b`` for
-    triangles). Summing duplicates gives
-    :func:`laplacian` up to rounding. Useful to assemble into another sparse format.
+    Parameters
+    ----------
+    {mesh}
+    {kind}
+    {options}
 
-    Example
+    Returns
     -------
+    Triplets
+        ``rows``, ``cols`` (int64, shape (16 m,) for tets, (9 m,) for triangles), ``vals``
+        (float64) and ``shape`` (n, n). Entry ``16 t + 4 a + b`` belongs to corners
+        ``a, b`` of tet ``t`` (``9 t + 3 a + b`` for triangles). Summing duplicates gives
+        :func:`laplacian` up to rounding; useful to assemble into another sparse format.
+
+    {raises}
+
+    Examples
+    --------
     >>> import tetlap, scipy.sparse as sp
     >>> V, T = tetlap.meshes.cube(2)
     >>> r, c, v, shape = tetlap.triplets(V, T)
@@ -175,51 +180,73 @@ def triplets(V, T, kind="primal", *, boundary="circumcentric", weights=None,
     >>> bool(abs(L - tetlap.laplacian(V, T)).max() < 1e-12)
     True
     """
-    V, T, w = _inputs(V, T, weights, boundary)
-    opts = _arrays.options(threads, degenerate, boundary)
-    name, t = _arrays.laplacian_kind(kind)
-    rows, cols, vals = _core.triplets(V, T, w, name, t, opts)
+    V, T, w = _inputs(V, T, weights)
+    rows, cols, vals = _core.triplets(V, T, kind, weights=w, boundary=boundary,
+                                      degenerate=degenerate, threads=threads)
     n = V.shape[0]
     return Triplets(rows, cols, vals, (n, n))
 
 
+@shared_docs
 def edge_weights(V, T, kind="primal", *, boundary="circumcentric", weights=None,
-                 degenerate="raise", threads=None):
-    """Unique edges and their weights.
+                 degenerate="raise", threads=None) -> tuple[np.ndarray, np.ndarray]:
+    """The unique edges of the mesh and their summed weights.
+
+    Parameters
+    ----------
+    {mesh}
+    {kind}
+    {options}
 
     Returns
     -------
-    edges : (E, 2) int64, ``i < j``, sorted lexicographically.
-    w : (E,) float64, ``w[e] = L[i, j]`` summed over the tets around edge e.
+    edges : (E, 2) int64 array
+        Every edge once, ``i < j``, sorted lexicographically.
+    w : (E,) float64 array
+        ``w[e] = L[i, j]``, the weight summed over the elements around edge e.
 
-    Example
-    -------
+    {raises}
+
+    Examples
+    --------
     >>> import tetlap
     >>> V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
     >>> edges, w = tetlap.edge_weights(V, [[0, 1, 2, 3]], kind="dual")
     >>> edges[0].tolist(), float(w[0])
     ([0, 1], 0.25)
     """
-    V, T, w = _inputs(V, T, weights, boundary)
-    opts = _arrays.options(threads, degenerate, boundary)
-    name, t = _arrays.laplacian_kind(kind)
-    return _core.edge_weights(V, T, w, name, t, opts)
+    V, T, w = _inputs(V, T, weights)
+    return _core.edge_weights(V, T, kind, weights=w, boundary=boundary, degenerate=degenerate,
+                              threads=threads)
 
 
+@shared_docs
 def tet_contributions(V, T, kind="primal", *, boundary="circumcentric", weights=None,
                       degenerate="raise", threads=None) -> np.ndarray:
-    """Per-element edge weights: (m, 6) float64 for tets, local edge order
-    ``(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)`` of each row of T; (m, 3) for triangles,
-    order ``(0,1), (0,2), (1,2)``.
+    """Per-element edge weights (each element's contribution to ``L``).
 
-    Example
+    Parameters
+    ----------
+    {mesh}
+    {kind}
+    {options}
+
+    Returns
     -------
+    W : (m, 6) float64 array for tets, (m, 3) for triangles
+        Row ``t`` holds the weights of element ``t`` in the local edge order
+        ``(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)`` of ``T[t]`` (triangles: ``(0,1),
+        (0,2), (1,2)``). Summed over the elements around an edge they give ``L[i, j]``.
+
+    {raises}
+
+    Examples
+    --------
     >>> import tetlap
     >>> V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
     >>> (tetlap.tet_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12)
     array([[1., 1., 1., 0., 0., 0.]])
     """
-    V, T, w = _inputs(V, T, weights, boundary)
-    opts = _arrays.options(threads, degenerate, boundary)
-    name, t = _arrays.laplacian_kind(kind)
-    return _core.tet_contributions(V, T, w, name, t, opts)
+    V, T, w = _inputs(V, T, weights)
+    return _core.contributions(V, T, kind, weights=w, boundary=boundary, degenerate=degenerate,
+                               threads=threads)

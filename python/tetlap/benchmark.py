@@ -19,7 +19,8 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from . import assembly, cached, meshes
+from . import assembly, meshes
+from .mesh import Mesh
 
 # Kuhn grids: 6 k^3 tets.
 SIZES = {"10k": 12, "100k": 26, "1M": 55, "4M": 87}
@@ -65,8 +66,8 @@ def _cases(V, T, threads, quick) -> dict[str, Callable[[], object]]:
     rng = np.random.default_rng(0)
     few = V.copy()
     few[rng.choice(len(V), 20, replace=False)] += 1e-4
-    toggles = {"all": (cached.Mesh(V, T, threads=threads), [V * (1 + 1e-6), V * (1 + 2e-6)]),
-               "few": (cached.Mesh(V, T, threads=threads), [few, V])}
+    toggles = {"all": (Mesh(V, T, threads=threads), [V * (1 + 1e-6), V * (1 + 2e-6)]),
+               "few": (Mesh(V, T, threads=threads), [few, V])}
     for mesh, _ in toggles.values():
         mesh.operators("dual", "circumcentric")
     state = {"all": 0, "few": 0}

@@ -16,6 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays
+from .errors import DtypeError, IndexRangeError, OptionError, ShapeError
 from .diagnostics import (
     boundary_vertices,
     interior_vertices,
@@ -135,7 +136,7 @@ def check(L, V, T, M=None, *, negative_tol: float = NEGATIVE_TOL, nsd: bool = Tr
     n = V.shape[0]
     L = sp.csr_array(L, dtype=np.float64)
     if L.shape != (n, n):
-        raise _arrays.ShapeError(f"L has shape {L.shape}, expected ({n}, {n})")
+        raise ShapeError(f"L has shape {L.shape}, expected ({n}, {n})")
     notes: list[str] = []
     finite = bool(np.isfinite(L.data).all())
     scale = float(abs(L).max()) if L.nnz else 0.0

@@ -21,6 +21,7 @@ from scipy.sparse import csgraph
 from scipy.sparse.linalg import eigsh, spsolve, splu
 
 from . import _arrays
+from .errors import DtypeError, IndexRangeError, OptionError, ShapeError
 from .errors import TetlapError
 
 __all__ = [
@@ -42,12 +43,12 @@ def _mask(fixed, n: int) -> np.ndarray:
     fixed = np.asarray(fixed)
     if fixed.dtype == bool:
         if fixed.shape != (n,):
-            raise _arrays.ShapeError(f"a boolean `fixed` must have shape ({n},), got {fixed.shape}")
+            raise ShapeError(f"a boolean `fixed` must have shape ({n},), got {fixed.shape}")
         return fixed.copy()
     if fixed.dtype.kind not in "iu":
-        raise _arrays.DtypeError("`fixed` must be a boolean mask or integer vertex indices")
+        raise DtypeError("`fixed` must be a boolean mask or integer vertex indices")
     if fixed.size and (fixed.min() < 0 or fixed.max() >= n):
-        raise _arrays.IndexRangeError(f"`fixed` holds indices outside 0..{n}")
+        raise IndexRangeError(f"`fixed` holds indices outside 0..{n}")
     mask = np.zeros(n, dtype=bool)
     mask[fixed.ravel()] = True
     return mask
@@ -66,7 +67,7 @@ def _values(values, fixed: np.ndarray) -> np.ndarray:
         out = np.zeros(n)
         out[fixed] = v
         return out
-    raise _arrays.ShapeError(
+    raise ShapeError(
         f"values must be a scalar, one per vertex ({n}) or one per fixed vertex "
         f"({int(fixed.sum())}), got shape {v.shape}")
 
@@ -96,7 +97,7 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate") -> np.nd
     f = _values(values, fixed)
     b = np.zeros(n) if rhs is None else np.asarray(rhs, dtype=np.float64).copy()
     if b.shape != (n,):
-        raise _arrays.ShapeError(f"rhs must have shape ({n},), got {b.shape}")
+        raise ShapeError(f"rhs must have shape ({n},), got {b.shape}")
     free = ~fixed
     if not free.any():
         return f
@@ -109,7 +110,7 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate") -> np.nd
         b[fixed] = f[fixed]
         f = spsolve(sp.csc_array(A), b)
     else:
-        raise _arrays.OptionError(f'method must be "eliminate" or "replace", got {method!r}')
+        raise OptionError(f'method must be "eliminate" or "replace", got {method!r}')
     if not np.isfinite(f).all():
         raise TetlapError("the Dirichlet system is singular: is every connected component "
                           "of the mesh constrained somewhere?")
@@ -144,7 +145,7 @@ def neumann(L, g, rhs=None, *, gauge="mean", rtol: float = 1e-6) -> np.ndarray:
     if rhs is not None:
         data = data + np.asarray(rhs, dtype=np.float64)
     if data.shape != (n,):
-        raise _arrays.ShapeError(f"g and rhs must have shape ({n},)")
+        raise ShapeError(f"g and rhs must have shape ({n},)")
     labels, referenced = _components(L, n)
     comps = np.unique(labels[referenced])
     rows, cols, vals = [], [], []
@@ -160,7 +161,7 @@ def neumann(L, g, rhs=None, *, gauge="mean", rtol: float = 1e-6) -> np.ndarray:
         elif gauge == "mean" or isinstance(gauge, (int, np.integer)):
             gauged = members
         else:
-            raise _arrays.OptionError(f'gauge must be "mean" or a vertex index, got {gauge!r}')
+            raise OptionError(f'gauge must be "mean" or a vertex index, got {gauge!r}')
         rows += [np.full(len(gauged), k)]
         cols += [gauged]
         vals += [np.ones(len(gauged))]
@@ -306,7 +307,7 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None):
     fixed = np.zeros(n, dtype=bool) if fixed is None else _mask(fixed, n)
     free = np.flatnonzero(~fixed)
     if not 0 < k < len(free):
-        raise _arrays.OptionError(f"k must be between 1 and {len(free) - 1}, got {k}")
+        raise OptionError(f"k must be between 1 and {len(free) - 1}, got {k}")
     A = -L[free][:, free]
     B = M[free][:, free]
     is_diagonal = B.nnz == np.count_nonzero(B.diagonal())

@@ -1,24 +1,22 @@
 //! A mesh that keeps its topology: re-assembly without the symbolic step, and updates that
 //! recompute only what moved (strong locality, paper Sec. 7.1).
 
-use crate::assemble::{
-    check_kind, corner_mass, laplacian_values, mass_values, per_tet, per_tet_subset, run,
-    boundary_mask, weights, Degenerate, Element, Elements, Fault, LaplacianKind, MassKind, Source,
-    Options,
-};
-use crate::csr::Csr;
+use crate::assemble::{laplacian_values, mass_values, with_threads};
+use crate::csr::{Csr, Mass};
+use crate::element::{boundary_mask, Element, Elements, Fault};
 use crate::error::{Error, Result};
-use crate::mesh::TetMesh;
-use crate::operators::Mass;
+use crate::mesh::Mesh;
+use crate::options::{LaplacianKind, MassKind, Options};
+use crate::pass::{chunked, fault_to_error, per_element, per_element_subset, CHUNK};
+use crate::simplex::{Simplex, Tet};
 use crate::topology::Topology;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use rayon::prelude::*;
 
-/// One cached operator: its per-tet values and its assembled values.
+/// One cached operator: its per-element values and its assembled values.
 #[derive(Debug, Clone)]
 struct Cached<K, T> {
     kind: K,
-    per_tet: Vec<T>,
+    per_element: Vec<T>,
     /// CSR data on the topology's pattern, or one value per vertex for lumped masses.
     values: Vec<f64>,
 }
@@ -28,71 +26,75 @@ struct Cached<K, T> {
 pub struct Update {
     /// Vertices whose coordinates changed.
     pub moved_vertices: usize,
-    /// Tets around them (recomputed once per cached operator).
-    pub recomputed_tets: usize,
+    /// Elements around them (recomputed once per cached operator).
+    pub recomputed_elements: usize,
     /// Rows (vertices) whose values were re-summed.
     pub recomputed_rows: usize,
 }
 
-/// A tet mesh with its topology computed once, and the operators asked for so far.
+/// A mesh with its topology computed once, and the operators asked for so far.
 ///
-/// [`Mesh::update`] moves vertices and refreshes every cached operator by recomputing only
-/// the tets around moved vertices and re-summing only the rows of their corners. Rows are
-/// always summed over their tets in ascending order, so the result is **bitwise equal** to
-/// a fresh assembly of the new geometry.
+/// [`CachedMesh::update`] moves vertices and refreshes every cached operator by
+/// recomputing only the elements around moved vertices and re-summing only the rows of
+/// their corners. Rows are always summed over their elements in ascending order, so the
+/// result is **bitwise equal** to a fresh assembly of the new geometry.
 ///
 /// ```
-/// use tetlap::{LaplacianKind, Mesh, Options};
+/// use tetlap::{CachedMesh, LaplacianKind, Options, Tet, TetMesh};
 /// let points = vec![0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.];
-/// let mut mesh = Mesh::new(points.clone(), 3, vec![[0, 1, 2, 3], [4, 2, 1, 3]], Options::default())?;
+/// let mut mesh = CachedMesh::<Tet>::new(points.clone(), 3, vec![[0, 1, 2, 3], [4, 2, 1, 3]], Options::default())?;
 /// let before = mesh.laplacian(LaplacianKind::Dual)?;
 /// let mut moved = points.clone();
 /// moved[14] = 1.5; // vertex 4 moves
 /// let update = mesh.update(&moved)?;
 /// assert_eq!(update.moved_vertices, 1);
-/// let fresh = tetlap::laplacian(&tetlap::TetMesh::new(&moved, 3, mesh.tets())?,
+/// let fresh = tetlap::laplacian(&TetMesh::new(&moved, 3, mesh.cells())?,
 ///                               LaplacianKind::Dual, &Options::default())?;
 /// assert_eq!(mesh.laplacian(LaplacianKind::Dual)?, fresh);
 /// assert_ne!(before, fresh);
 /// # Ok::<(), tetlap::Error>(())
 /// ```
 #[derive(Debug, Clone)]
-pub struct Mesh {
+pub struct CachedMesh<S: Simplex = Tet> {
     points: Vec<f64>,
     dim: usize,
-    tets: Vec<[u32; 4]>,
+    cells: Vec<S::Cell>,
     weights: Option<Vec<f64>>,
     boundary: Option<Vec<bool>>,
     opts: Options,
     topology: Topology,
-    laplacians: Vec<Cached<LaplacianKind, [f64; 6]>>,
-    masses: Vec<Cached<MassKind, [f64; 4]>>,
+    laplacians: Vec<Cached<LaplacianKind, S::EdgeValues>>,
+    masses: Vec<Cached<MassKind, S::CornerValues>>,
 }
 
-impl Mesh {
-    /// Validates the mesh (as [`TetMesh::new`]) and computes its topology.
-    pub fn new(points: Vec<f64>, dim: usize, tets: Vec<[u32; 4]>, opts: Options) -> Result<Self> {
-        Self::with_weights(points, dim, tets, None, opts)
+impl<S: Simplex> CachedMesh<S> {
+    /// Validates the mesh (as [`Mesh::new`]) and computes its topology.
+    pub fn new(points: Vec<f64>, dim: usize, cells: Vec<S::Cell>, opts: Options) -> Result<Self> {
+        Self::with_weights(points, dim, cells, None, opts)
     }
 
-    /// [`Mesh::new`] with vertex weights for the dual (see [`TetMesh::with_weights`]).
+    /// [`CachedMesh::new`] with vertex weights for the dual (see [`Mesh::with_weights`]).
     pub fn with_weights(
         points: Vec<f64>,
         dim: usize,
-        tets: Vec<[u32; 4]>,
+        cells: Vec<S::Cell>,
         weights: Option<Vec<f64>>,
         opts: Options,
     ) -> Result<Self> {
-        let mesh = TetMesh::new(&points, dim, &tets)?;
+        let mesh = Mesh::<S>::new(&points, dim, &cells)?;
         if let Some(w) = &weights {
             mesh.with_weights(w)?;
         }
-        let (topology, boundary) = run(opts.threads, || {
-            rayon::join(|| Topology::new(&tets, points.len() / dim), || boundary_mask(&mesh, &opts))
+        let (topology, boundary) = with_threads::<S, _>(&opts, || {
+            let (topology, boundary) = rayon::join(
+                || Topology::new::<S>(&cells, points.len() / dim),
+                || boundary_mask(&mesh, &opts),
+            );
+            Ok((topology?, boundary))
         })?;
-        let topology = topology?;
+        opts.cancelled()?;
         let (laplacians, masses) = (vec![], vec![]);
-        Ok(Mesh { points, dim, tets, weights, boundary, opts, topology, laplacians, masses })
+        Ok(CachedMesh { points, dim, cells, weights, boundary, opts, topology, laplacians, masses })
     }
 
     /// The current coordinates, row-major `(n, dim)`.
@@ -100,9 +102,9 @@ impl Mesh {
         &self.points
     }
 
-    /// The tets.
-    pub fn tets(&self) -> &[[u32; 4]] {
-        &self.tets
+    /// The elements.
+    pub fn cells(&self) -> &[S::Cell] {
+        &self.cells
     }
 
     /// Ambient dimension.
@@ -110,35 +112,50 @@ impl Mesh {
         self.dim
     }
 
+    /// The options the mesh was built with.
+    pub fn options(&self) -> &Options {
+        &self.opts
+    }
+
+    /// Sets (or clears) the cancel flag that the following calls poll (see
+    /// [`Options::cancel`]).
+    pub fn set_cancel(&mut self, cancel: Option<crate::Cancel>) {
+        self.opts.cancel = cancel;
+    }
+
     /// The cached topology (CSR pattern and slot map).
     pub fn topology(&self) -> &Topology {
         &self.topology
     }
 
-    fn elements<'a>(&'a self, points: &'a [f64]) -> Elements<'a> {
-        let mesh = TetMesh::trusted(points, self.dim, &self.tets, self.weights.as_deref());
+    fn elements<'a>(&'a self, points: &'a [f64]) -> Elements<'a, S> {
+        let mesh = Mesh::trusted(points, self.dim, &self.cells, self.weights.as_deref());
         Elements::with_mask(mesh, self.boundary.as_deref())
     }
 
-    /// CSR data of the Laplacian of `kind` on [`Mesh::topology`]'s pattern (computed on
-    /// first use, then kept up to date by [`Mesh::update`]).
+    /// CSR data of the Laplacian of `kind` on [`CachedMesh::topology`]'s pattern, if it is
+    /// cached.
+    pub fn cached_laplacian_values(&self, kind: LaplacianKind) -> Option<&[f64]> {
+        self.laplacians.iter().find(|c| c.kind == kind).map(|c| &c.values[..])
+    }
+
+    /// CSR data of the Laplacian of `kind` on [`CachedMesh::topology`]'s pattern (computed
+    /// on first use, then kept up to date by [`CachedMesh::update`]).
     pub fn laplacian_values(&mut self, kind: LaplacianKind) -> Result<&[f64]> {
-        check_kind(kind)?;
-        let index = match self.laplacians.iter().position(|c| c.kind == kind) {
-            Some(index) => index,
-            None => {
-                let (elements, topo, opts) = (self.elements(&self.points), &self.topology, self.opts);
-                let cached = run(opts.threads, || -> Result<_> {
-                    let mut w = vec![[0.0; 6]; self.tets.len()];
-                    per_tet(&elements, opts.degenerate, &mut w, |t| weights(t, kind))?;
-                    let values = laplacian_values(topo, &w, None, vec![0.0; topo.nnz()]);
-                    Ok(Cached { kind, per_tet: w, values })
-                })??;
-                self.laplacians.push(cached);
-                self.laplacians.len() - 1
-            }
-        };
-        Ok(&self.laplacians[index].values)
+        let kind = kind.check()?;
+        if let Some(index) = self.laplacians.iter().position(|c| c.kind == kind) {
+            return Ok(&self.laplacians[index].values);
+        }
+        let (elements, topo, opts) = (self.elements(&self.points), &self.topology, &self.opts);
+        let cached = with_threads::<S, _>(opts, || {
+            let mut w = vec![S::EdgeValues::default(); self.cells.len()];
+            per_element(&elements, opts, &mut w, |el| el.weights(kind))?;
+            let values = laplacian_values::<S>(topo, &w, None, vec![0.0; topo.nnz()]);
+            opts.cancelled()?;
+            Ok(Cached { kind, per_element: w, values })
+        })?;
+        self.laplacians.push(cached);
+        Ok(&self.laplacians.last().expect("just pushed").values)
     }
 
     /// The Laplacian of `kind` as a CSR matrix (a copy of the cached values).
@@ -147,24 +164,27 @@ impl Mesh {
         Ok(self.topology.to_csr(values))
     }
 
+    /// Values of the mass of `kind`, if cached (see [`CachedMesh::mass_values`]).
+    pub fn cached_mass_values(&self, kind: MassKind) -> Option<&[f64]> {
+        self.masses.iter().find(|c| c.kind == kind).map(|c| &c.values[..])
+    }
+
     /// Values of the mass of `kind`: one per vertex for lumped kinds, CSR data on the
     /// pattern for [`MassKind::Fem`].
     pub fn mass_values(&mut self, kind: MassKind) -> Result<&[f64]> {
-        let index = match self.masses.iter().position(|c| c.kind == kind) {
-            Some(index) => index,
-            None => {
-                let (elements, topo, opts) = (self.elements(&self.points), &self.topology, self.opts);
-                let cached = run(opts.threads, || -> Result<_> {
-                    let mut m = vec![[0.0; 4]; self.tets.len()];
-                    per_tet(&elements, opts.degenerate, &mut m, |t| corner_mass(t, kind))?;
-                    let values = mass_values(topo, kind, &m, None, vec![]);
-                    Ok(Cached { kind, per_tet: m, values })
-                })??;
-                self.masses.push(cached);
-                self.masses.len() - 1
-            }
-        };
-        Ok(&self.masses[index].values)
+        if let Some(index) = self.masses.iter().position(|c| c.kind == kind) {
+            return Ok(&self.masses[index].values);
+        }
+        let (elements, topo, opts) = (self.elements(&self.points), &self.topology, &self.opts);
+        let cached = with_threads::<S, _>(opts, || {
+            let mut m = vec![S::CornerValues::default(); self.cells.len()];
+            per_element(&elements, opts, &mut m, |el| el.corner_mass(kind))?;
+            let values = mass_values::<S>(topo, kind, &m, None, vec![]);
+            opts.cancelled()?;
+            Ok(Cached { kind, per_element: m, values })
+        })?;
+        self.masses.push(cached);
+        Ok(&self.masses.last().expect("just pushed").values)
     }
 
     /// The mass of `kind` (a copy of the cached values).
@@ -177,7 +197,7 @@ impl Mesh {
     }
 
     /// Moves the vertices to `points` (same shape, finite) and refreshes every cached
-    /// operator (see [`Mesh::move_vertices`]).
+    /// operator (see [`CachedMesh::move_vertices`]).
     pub fn update(&mut self, points: &[f64]) -> Result<Update> {
         let moved = self.moved_vertices(points)?;
         let dim = self.dim;
@@ -190,7 +210,7 @@ impl Mesh {
     pub fn moved_vertices(&self, points: &[f64]) -> Result<Vec<u32>> {
         if points.len() != self.points.len() {
             return Err(Error::Shape {
-                message: format!(
+                what: format!(
                     "the new points have {} coordinates, the mesh has {} ({} x {})",
                     points.len(),
                     self.points.len(),
@@ -200,34 +220,32 @@ impl Mesh {
             });
         }
         let dim = self.dim;
-        run(self.opts.threads, || {
-            (0..self.points.len() / dim)
+        with_threads::<S, _>(&self.opts, || {
+            Ok((0..self.points.len() / dim)
                 .into_par_iter()
                 .filter(|&i| self.points[i * dim..(i + 1) * dim] != points[i * dim..(i + 1) * dim])
                 .map(|i| i as u32)
-                .collect()
+                .collect())
         })
     }
 
     /// Moves the vertices `moved` (ascending, distinct) to `coords` (`dim` values each) and
-    /// refreshes every cached operator: only the tets around them are recomputed and only
-    /// the rows of those tets' corners re-summed (beyond an eighth of the vertices, all of
-    /// them, in parallel). Degeneracy is checked by the cached operators (with none cached
-    /// yet, by the next request). On error (a tet became degenerate under
-    /// [`crate::Degenerate::Raise`], a non-finite coordinate, bad indices) nothing changes.
+    /// refreshes every cached operator: only the elements around them are recomputed and
+    /// only the rows of those elements' corners re-summed (beyond an eighth of the
+    /// vertices, all of them, in parallel). Degeneracy is checked by the cached operators
+    /// (with none cached yet, by the next request). On error (an element became degenerate
+    /// under [`crate::Degenerate::Raise`], a non-finite coordinate, a bad vertex list,
+    /// cancellation) nothing changes.
     pub fn move_vertices(&mut self, moved: &[u32], coords: &[f64]) -> Result<Update> {
         let (dim, n) = (self.dim, self.points.len() / self.dim);
         if coords.len() != moved.len() * dim {
             return Err(Error::Shape {
-                message: format!("{} coordinates for {} vertices of dimension {dim}", coords.len(), moved.len()),
+                what: format!("{} coordinates for {} vertices of dimension {dim}", coords.len(), moved.len()),
             });
         }
-        if let Some(k) = moved.iter().position(|&v| v as usize >= n) {
-            let index = moved[k] as i64;
-            return Err(Error::IndexOutOfRange { element: k, corner: 0, index, n_vertices: n });
-        }
-        if moved.windows(2).any(|w| w[0] >= w[1]) {
-            return Err(Error::InvalidOption { message: "moved vertices must be ascending and distinct".into() });
+        let bad = |k: usize| moved[k] as usize >= n || (k > 0 && moved[k - 1] >= moved[k]);
+        if let Some(position) = (0..moved.len()).find(|&k| bad(k)) {
+            return Err(Error::VertexList { position, vertex: moved[position], n_vertices: n });
         }
         if let Some(k) = coords.iter().position(|x| !x.is_finite()) {
             let (vertex, coordinate) = (moved[k / dim] as usize, k % dim);
@@ -256,112 +274,99 @@ impl Mesh {
             // nothing cached yet: the next request assembles from the new coordinates
             return Ok(Update { moved_vertices: moved.len(), ..Update::default() });
         }
+        let k = S::CORNERS;
         let full = moved.len() > n / 8;
         let topo = &self.topology;
-        let (mut tets, mut rows) = (Vec::new(), Vec::new());
+        let (mut listed, mut rows) = (Vec::new(), Vec::new());
         if !full {
-            tets = moved.iter().flat_map(|&v| topo.corners.of(v as usize)).map(|&k| k / 4).collect();
-            tets.sort_unstable();
-            tets.dedup();
-            rows = tets.iter().flat_map(|&t| self.tets[t as usize]).collect();
+            listed = moved.iter().flat_map(|&v| topo.corners.of(v as usize)).map(|&q| q / k as u32).collect();
+            listed.sort_unstable();
+            listed.dedup();
+            rows = listed.iter().flat_map(|&t| self.cells[t as usize].as_ref().to_vec()).collect();
             rows.sort_unstable();
             rows.dedup();
         }
         let new = self.elements(&self.points);
-        let opts = self.opts;
-        let (laplacians, masses) = run(opts.threads, || -> Result<_> {
+        let opts = &self.opts;
+        let (laplacians, masses) = with_threads::<S, _>(opts, || {
             if full {
                 return self.recompute_all(&new);
             }
-            let l = recompute(&new, opts, &tets, &self.laplacians, |t, k| weights(t, k))?;
-            let m = recompute(&new, opts, &tets, &self.masses, |t, k| corner_mass(t, k))?;
+            let l = recompute(&new, opts, &listed, &self.laplacians, |el, kind| el.weights(kind))?;
+            let m = recompute(&new, opts, &listed, &self.masses, |el, kind| el.corner_mass(kind))?;
             Ok((l, m))
-        })??;
+        })?;
         // Nothing failed: commit.
         let (topo, all) = (&self.topology, (!full).then_some(&rows[..]));
-        let listed = (!full).then_some(&tets[..]);
-        run(opts.threads, || {
+        let only = (!full).then_some(&listed[..]);
+        with_threads::<S, _>(&self.opts, || {
             for (cached, new) in self.laplacians.iter_mut().zip(laplacians) {
-                commit(&mut cached.per_tet, listed, new);
+                commit(&mut cached.per_element, only, new);
                 let values = std::mem::take(&mut cached.values);
-                cached.values = laplacian_values(topo, &cached.per_tet, all, values);
+                cached.values = laplacian_values::<S>(topo, &cached.per_element, all, values);
             }
             for (cached, new) in self.masses.iter_mut().zip(masses) {
-                commit(&mut cached.per_tet, listed, new);
+                commit(&mut cached.per_element, only, new);
                 let values = std::mem::take(&mut cached.values);
-                cached.values = mass_values(topo, cached.kind, &cached.per_tet, all, values);
+                cached.values = mass_values::<S>(topo, cached.kind, &cached.per_element, all, values);
             }
+            Ok(())
         })?;
         Ok(Update {
             moved_vertices: moved.len(),
-            recomputed_tets: if full { self.tets.len() } else { tets.len() },
+            recomputed_elements: if full { self.cells.len() } else { listed.len() },
             recomputed_rows: if full { n } else { rows.len() },
         })
     }
-}
 
-impl Mesh {
-    /// Per-tet values of every cached operator for all tets, in one pass over the tets
-    /// (each tet's frame and dual are computed once for all of them).
-    fn recompute_all(&self, elements: &Elements) -> Result<(Vec<Vec<[f64; 6]>>, Vec<Vec<[f64; 4]>>)> {
-        let m = self.tets.len();
+    /// Per-element values of every cached operator for all elements, in one pass (each
+    /// element's frame and dual are computed once for all of them).
+    #[allow(clippy::type_complexity)]
+    fn recompute_all(
+        &self,
+        elements: &Elements<S>,
+    ) -> Result<(Vec<Vec<S::EdgeValues>>, Vec<Vec<S::CornerValues>>)> {
+        let m = self.cells.len();
+        let mut l_new: Vec<Vec<S::EdgeValues>> = self.laplacians.iter().map(|_| vec![Default::default(); m]).collect();
+        let mut m_new: Vec<Vec<S::CornerValues>> = self.masses.iter().map(|_| vec![Default::default(); m]).collect();
+        let l_kinds: Vec<_> = self.laplacians.iter().map(|c| c.kind).collect();
+        let m_kinds: Vec<_> = self.masses.iter().map(|c| c.kind).collect();
         let n_chunks = m.div_ceil(CHUNK);
-        let mut l_new: Vec<Vec<[f64; 6]>> = self.laplacians.iter().map(|_| vec![[0.0; 6]; m]).collect();
-        let mut m_new: Vec<Vec<[f64; 4]>> = self.masses.iter().map(|_| vec![[0.0; 4]; m]).collect();
-        let (l_kinds, m_kinds): (Vec<_>, Vec<_>) = (
-            self.laplacians.iter().map(|c| c.kind).collect(),
-            self.masses.iter().map(|c| c.kind).collect(),
-        );
-        let first_fault = AtomicUsize::new(usize::MAX);
-        // a failing tet keeps the zeros of the fresh buffer (the Skip policy)
-        fn store<T>(fault: &AtomicUsize, t: usize, out: &mut [T], k: usize, r: std::result::Result<T, Fault>) {
-            match r {
-                Ok(v) => out[k] = v,
-                Err(_) => {
-                    fault.fetch_min(t, Ordering::Relaxed);
+        let chunks = chunk_lists(&mut l_new, n_chunks).into_par_iter().zip(chunk_lists(&mut m_new, n_chunks));
+        let fault = chunked(elements, &self.opts, chunks, |c, (mut ls, mut ms), scratch| {
+            let mut fault = None;
+            for k in 0..CHUNK.min(m - c * CHUNK) {
+                let t = c * CHUNK + k;
+                let el = elements.get(t, scratch);
+                // a faulty element keeps the zeros of the fresh buffer (the Skip policy)
+                let mut store = |ok: bool| fault = fault.or((!ok).then_some(t));
+                for (out, &kind) in ls.iter_mut().zip(&l_kinds) {
+                    store(el.weights(kind).map(|v| out[k] = v).is_ok());
+                }
+                for (out, &kind) in ms.iter_mut().zip(&m_kinds) {
+                    store(el.corner_mass(kind).map(|v| out[k] = v).is_ok());
                 }
             }
-        }
-        let work = chunked(&mut l_new, n_chunks).into_par_iter().zip(chunked(&mut m_new, n_chunks));
-        work.enumerate().for_each_init(
-            || vec![0.0; 3 * self.dim],
-            |scratch, (c, (mut ls, mut ms))| {
-                for k in 0..CHUNK.min(m - c * CHUNK) {
-                    let t = c * CHUNK + k;
-                    let el = elements.get(t, scratch);
-                    for (out, &kind) in ls.iter_mut().zip(&l_kinds) {
-                        store(&first_fault, t, out, k, weights(&el, kind));
-                    }
-                    for (out, &kind) in ms.iter_mut().zip(&m_kinds) {
-                        store(&first_fault, t, out, k, corner_mass(&el, kind));
-                    }
-                }
-            },
-        );
-        let t = first_fault.into_inner();
-        if t != usize::MAX && self.opts.degenerate == Degenerate::Raise {
-            return Err(elements.fault_error(t));
-        }
+            fault
+        })?;
+        fault_to_error(elements, self.opts.degenerate, fault)?;
         Ok((l_new, m_new))
     }
 }
 
-/// New per-tet values of every cached operator for the listed tets.
-fn recompute<K: Copy + Sync, T: Copy + Default + Send + Sync>(
-    elements: &Elements,
-    opts: Options,
-    tets: &[u32],
+/// New per-element values of every cached operator for the listed elements.
+fn recompute<S: Simplex, K: Copy + Sync, T: Default + Send + Sync>(
+    elements: &Elements<S>,
+    opts: &Options,
+    listed: &[u32],
     cached: &[Cached<K, T>],
-    f: impl Fn(&Element, K) -> std::result::Result<T, Fault> + Sync,
+    f: impl Fn(&Element<S>, K) -> std::result::Result<T, Fault> + Sync,
 ) -> Result<Vec<Vec<T>>> {
-    cached.iter().map(|c| per_tet_subset(elements, opts.degenerate, tets, |t| f(t, c.kind))).collect()
+    cached.iter().map(|c| per_element_subset(elements, opts, listed, |el| f(el, c.kind))).collect()
 }
 
-/// Tets per work item of [`Mesh::recompute_all`].
-const CHUNK: usize = 2048;
-
-/// `v`'s chunks of [`CHUNK`] tets, appended to the per-chunk lists.
-fn chunked<'a, T>(caches: &'a mut [Vec<T>], n_chunks: usize) -> Vec<Vec<&'a mut [T]>> {
+/// The [`CHUNK`]-element chunks of every cache, gathered per chunk.
+fn chunk_lists<T>(caches: &mut [Vec<T>], n_chunks: usize) -> Vec<Vec<&mut [T]>> {
     let mut chunks: Vec<Vec<&mut [T]>> = (0..n_chunks).map(|_| Vec::new()).collect();
     for v in caches.iter_mut() {
         for (c, part) in v.chunks_mut(CHUNK).enumerate() {
@@ -371,15 +376,15 @@ fn chunked<'a, T>(caches: &'a mut [Vec<T>], n_chunks: usize) -> Vec<Vec<&'a mut 
     chunks
 }
 
-/// Stores new per-tet values: all of them (`tets = None`) or those of the listed tets.
-fn commit<T: Copy>(per_tet: &mut Vec<T>, tets: Option<&[u32]>, new: Vec<T>) {
-    match tets {
-        None => *per_tet = new,
-        Some(tets) => {
-            for (&t, v) in tets.iter().zip(new) {
-                per_tet[t as usize] = v;
+/// Stores new per-element values: all of them (`listed = None`) or those of the listed
+/// elements.
+fn commit<T: Copy>(per_element: &mut Vec<T>, listed: Option<&[u32]>, new: Vec<T>) {
+    match listed {
+        None => *per_element = new,
+        Some(listed) => {
+            for (&t, v) in listed.iter().zip(new) {
+                per_element[t as usize] = v;
             }
         }
     }
 }
-

@@ -1,4 +1,4 @@
-//! Compressed sparse row matrices and unsummed coordinate triplets.
+//! The outputs: compressed sparse row matrices, masses and unsummed coordinate triplets.
 
 /// A square `n x n` matrix in compressed sparse row form: sorted column indices per row,
 /// no duplicates. Row `i` holds `indices[indptr[i]..indptr[i+1]]` and the matching `data`.
@@ -20,12 +20,6 @@ impl Csr {
         self.data.len()
     }
 
-    /// The diagonal matrix with `diag` on its diagonal.
-    pub fn diagonal(diag: Vec<f64>) -> Csr {
-        let n = diag.len();
-        Csr { n, indptr: (0..=n).collect(), indices: (0..n as u32).collect(), data: diag }
-    }
-
     /// Entry `(i, j)`, zero when not stored.
     pub fn get(&self, i: usize, j: usize) -> f64 {
         let row = self.indptr[i]..self.indptr[i + 1];
@@ -33,20 +27,6 @@ impl Csr {
             Ok(k) => self.data[row.start + k],
             Err(_) => 0.0,
         }
-    }
-
-    /// `y = A x`.
-    pub fn matvec(&self, x: &[f64]) -> Vec<f64> {
-        (0..self.n)
-            .map(|i| {
-                let row = self.indptr[i]..self.indptr[i + 1];
-                self.indices[row.clone()]
-                    .iter()
-                    .zip(&self.data[row])
-                    .map(|(&j, &a)| a * x[j as usize])
-                    .sum()
-            })
-            .collect()
     }
 }
 
@@ -62,4 +42,13 @@ pub struct Coo {
     pub cols: Vec<u32>,
     /// Value of every triplet.
     pub vals: Vec<f64>,
+}
+
+/// A mass matrix: lumped (a diagonal, one value per vertex) or consistent (sparse).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Mass {
+    /// Diagonal entries, one per vertex (0 for unreferenced vertices).
+    Lumped(Vec<f64>),
+    /// The consistent P1 mass on the pattern "edges + diagonal".
+    Consistent(Csr),
 }

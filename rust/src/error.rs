@@ -1,20 +1,26 @@
-//! The one error type of the crate. Every variant names the offending element.
+//! The one error type of the crate, in Rust terms. Every variant names what is at fault
+//! (the element, the vertex, the value), so that callers (such as the Python bindings)
+//! can word their own messages from the fields.
 
 use std::fmt;
 
-/// Everything that can go wrong, each naming the tet, vertex or value at fault.
+/// Everything that can go wrong, each naming the element, vertex or value at fault.
 ///
-/// The core validates its input once ([`crate::TetMesh::new`]) and never panics on user
+/// The core validates its input once ([`crate::Mesh::new`]) and never panics on user
 /// data: every problem surfaces as one of these variants.
 #[derive(Debug, Clone, PartialEq)]
 #[allow(missing_docs)] // the fields are named for what they hold
 pub enum Error {
-    /// Points are not a `(n, dim)` array with `dim >= 3` (`min_dim` = 2 for triangles).
-    Shape { message: String },
+    /// Points are not rows of `dim >= min_dim` coordinates, or an array does not have one
+    /// entry per vertex (`what` says which array and how).
+    Shape { what: String },
     /// The mesh has no vertices or no elements.
     EmptyMesh { n_vertices: usize, n_elements: usize },
-    /// More vertices than the `u32` / `i32` indices of the core and of the CSR output hold.
+    /// More vertices than the `u32` indices of the core and the `i32` ones of the CSR
+    /// output hold.
     TooManyVertices { n_vertices: usize, max: usize },
+    /// More elements than the `u32` element-corner ids of the core hold.
+    TooManyElements { n_elements: usize, max: usize },
     /// A coordinate is NaN or infinite.
     NonFiniteCoordinate { vertex: usize, coordinate: usize, value: f64 },
     /// A vertex weight is NaN or infinite.
@@ -27,35 +33,37 @@ pub enum Error {
     Degenerate { element: usize },
     /// An element's contribution overflows `f64` (nearly degenerate, or huge coordinates).
     NonFiniteResult { element: usize },
-    /// An option has a value outside its domain (e.g. `threads = 0`, `t` outside `[0, 1]`).
-    InvalidOption { message: String },
+    /// The affine parameter of [`crate::LaplacianKind::Affine`] lies outside `[0, 1]`.
+    AffineParameter { t: f64 },
+    /// [`crate::Options::threads`] is 0 or above [`crate::max_threads`].
+    Threads { threads: usize, max: usize },
+    /// The operating system refused to start worker threads.
+    ThreadPool { reason: String },
+    /// An option that this kind of element does not support.
+    Unsupported { option: Feature, element: &'static str },
+    /// A vertex list of [`crate::CachedMesh::move_vertices`] is not ascending and distinct,
+    /// or names a vertex `>= n_vertices` (`position` is its place in the list).
+    VertexList { position: usize, vertex: u32, n_vertices: usize },
+    /// The computation was cancelled through [`crate::Options::cancel`].
+    Cancelled,
+}
+
+/// Options that only some kinds of element support (see [`Error::Unsupported`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Feature {
+    /// Vertex weights ([`crate::Mesh::with_weights`]): tets only.
+    VertexWeights,
+    /// [`crate::Boundary::Barycentric`]: tets only.
+    BarycentricBoundary,
 }
 
 /// `Result<T, tetlap::Error>`.
 pub type Result<T> = std::result::Result<T, Error>;
 
-impl Error {
-    /// A stable, short name of the variant (the bindings map it to an exception class).
-    pub fn kind(&self) -> &'static str {
-        match self {
-            Error::Shape { .. } => "ShapeError",
-            Error::EmptyMesh { .. } => "EmptyMeshError",
-            Error::TooManyVertices { .. } => "IndexRangeError",
-            Error::NonFiniteCoordinate { .. } => "NonFiniteError",
-            Error::NonFiniteWeight { .. } => "NonFiniteError",
-            Error::IndexOutOfRange { .. } => "IndexRangeError",
-            Error::RepeatedVertex { .. } => "RepeatedVertexError",
-            Error::Degenerate { .. } => "DegenerateElementError",
-            Error::NonFiniteResult { .. } => "DegenerateElementError",
-            Error::InvalidOption { .. } => "OptionError",
-        }
-    }
-}
-
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Error::Shape { message } => write!(f, "{message}"),
+            Error::Shape { what } => write!(f, "{what}"),
             Error::EmptyMesh { n_vertices, n_elements } => write!(
                 f,
                 "empty mesh: {n_vertices} vertices and {n_elements} elements \
@@ -63,6 +71,9 @@ impl fmt::Display for Error {
             ),
             Error::TooManyVertices { n_vertices, max } => {
                 write!(f, "{n_vertices} vertices: at most {max} are supported")
+            }
+            Error::TooManyElements { n_elements, max } => {
+                write!(f, "{n_elements} elements: at most {max} are supported")
             }
             Error::NonFiniteCoordinate { vertex, coordinate, value } => write!(
                 f,
@@ -81,16 +92,35 @@ impl fmt::Display for Error {
             }
             Error::Degenerate { element } => write!(
                 f,
-                "element {element} is degenerate (zero volume); pass degenerate=\"skip\" \
-                 to give such elements zero contribution"
+                "element {element} is degenerate (zero volume); Degenerate::Skip gives \
+                 such elements zero contribution"
             ),
             Error::NonFiniteResult { element } => write!(
                 f,
                 "element {element}: its contribution is not finite in double precision \
-                 (a nearly degenerate tet, or coordinates so large that its volume \
-                 overflows); pass degenerate=\"skip\" to drop it"
+                 (a nearly degenerate element, or coordinates so large that its volume \
+                 overflows); Degenerate::Skip drops it"
             ),
-            Error::InvalidOption { message } => write!(f, "{message}"),
+            Error::AffineParameter { t } => {
+                write!(f, "LaplacianKind::Affine(t) needs t in [0, 1], got {t}")
+            }
+            Error::Threads { threads, max } => {
+                write!(f, "Options::threads must lie in 1..={max}, got {threads}")
+            }
+            Error::ThreadPool { reason } => write!(f, "could not start worker threads: {reason}"),
+            Error::Unsupported { option, element } => {
+                let option = match option {
+                    Feature::VertexWeights => "vertex weights (Mesh::with_weights)",
+                    Feature::BarycentricBoundary => "Boundary::Barycentric",
+                };
+                write!(f, "{option} is not supported for {element} meshes")
+            }
+            Error::VertexList { position, vertex, n_vertices } => write!(
+                f,
+                "moved vertex {vertex} at position {position}: the list must be ascending, \
+                 distinct and below {n_vertices}"
+            ),
+            Error::Cancelled => write!(f, "cancelled"),
         }
     }
 }

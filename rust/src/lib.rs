@@ -9,10 +9,14 @@
 //!   weights on Delaunay meshes (a maximum principle), but indefinite on bad meshes;
 //! * barycentric, circumcentric (signed dual-cell volumes) and consistent P1 mass matrices.
 //!
+//! Tets ([`Tet`]) and triangles ([`Tri`], where primal and dual coincide) go through the
+//! same API: every function is generic over the [`Simplex`] kind of a [`Mesh`].
+//!
 //! ## Conventions
-//! * Points: `n x dim` row-major `f64`, `dim >= 3` (`dim > 3`: an immersed mesh, every tet
-//!   computed in its own 3-space). Tets: `[u32; 4]`, 0-based, **any orientation**: results
-//!   never depend on the orientation or vertex order of a tet.
+//! * Points: `n x dim` row-major `f64`, `dim >= 3` for tets, `dim >= 2` for triangles
+//!   (larger: an immersed mesh, every element computed in its own space). Elements:
+//!   `[u32; 4]` or `[u32; 3]`, 0-based, **any orientation**: results never depend on the
+//!   orientation or vertex order of an element.
 //! * Sign (paper Eq. 1): `L[i, j] = w_ij` for an edge, `L[i, i] = -sum_j w_ij`; rows sum to
 //!   zero; the primal `L` is negative semidefinite.
 //! * Local edge order inside a tet: `(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)`.
@@ -33,6 +37,11 @@
 //! assert!((m.iter().sum::<f64>() - 0.5).abs() < 1e-14); // total volume 1/6 + 1/3
 //! # Ok::<(), tetlap::Error>(())
 //! ```
+//!
+//! ## Layout
+//! [`mod@local`] holds the kernels, pure functions of one element; [`Simplex`] ties them to
+//! an element kind; the drivers (validation in [`Mesh`], the per-element pass, the row
+//! layout in [`Topology`], the scatter) are written once for every kind.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -40,22 +49,25 @@
 mod assemble;
 mod cached;
 mod csr;
+mod element;
 mod error;
 mod geometry;
 pub mod local;
 mod mesh;
 mod operators;
+mod options;
+mod parallel;
+mod pass;
+mod simplex;
 mod topology;
-mod triangles;
 
-pub use assemble::{Boundary, Degenerate, LaplacianKind, MassKind, Options};
-pub use cached::{Mesh, Update};
-pub use csr::{Coo, Csr};
-pub use error::{Error, Result};
+pub use cached::{CachedMesh, Update};
+pub use csr::{Coo, Csr, Mass};
+pub use error::{Error, Feature, Result};
 pub use geometry::{local_tet, local_tri, LocalTet, LocalTri};
-pub use mesh::{elements_from_i64, TetMesh, TriMesh, MAX_VERTICES};
-pub use operators::{
-    edge_weights, laplacian, mass, operators, tet_contributions, triplets, upper_triangle, Mass,
-};
-pub use triangles::{tri_contributions, tri_laplacian, tri_mass, tri_operators, tri_triplets};
-pub use topology::{boundary_tets, Incidence, Topology};
+pub use mesh::{cells_from_i64, Mesh, TetMesh, TriMesh, MAX_VERTICES};
+pub use operators::{contributions, edge_weights, laplacian, mass, operators, triplets, upper_triangle};
+pub use options::{Boundary, Cancel, Degenerate, LaplacianKind, MassKind, Options};
+pub use parallel::max_threads;
+pub use simplex::{Simplex, Tet, Tri, Values};
+pub use topology::{boundary_elements, Incidence, Topology};

@@ -1,13 +1,12 @@
-//! Inputs copied out of NumPy (with the GIL), outputs moved into NumPy without copying.
+//! Inputs copied out of NumPy (with the GIL) into the core's types, the one dispatch from
+//! a `(m, 4)` or `(m, 3)` array to the generic core, and outputs moved into NumPy
+//! without copying.
 
-use crate::errors::to_py;
-use numpy::{
-    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
-};
-use pyo3::exceptions::PyValueError;
+use crate::errors::{shape_error, to_py};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
-use tetlap::{Boundary, Coo, Csr, Degenerate, LaplacianKind, Mass, MassKind, Options, TetMesh, TriMesh};
+use tetlap::{Coo, Csr, LaplacianKind, Mass, MassKind, Mesh, Options, Simplex, Tet, Tri};
 
 /// The elements of a mesh: tets or triangles.
 pub enum Cells {
@@ -15,7 +14,7 @@ pub enum Cells {
     Tris(Vec<[u32; 3]>),
 }
 
-/// Owned copies of the points, the validated `u32` elements and the optional weights.
+/// Owned copies of the points, the validated elements and the optional vertex weights.
 pub struct Input {
     pub points: Vec<f64>,
     pub dim: usize,
@@ -23,7 +22,23 @@ pub struct Input {
     pub weights: Option<Vec<f64>>,
 }
 
+/// Something to compute on a mesh of any element kind.
+pub trait Job: Send {
+    type Output: Send;
+    fn run<S: Simplex>(self, mesh: &Mesh<S>, opts: &Options) -> tetlap::Result<Self::Output>;
+}
+
+/// The data of a C-contiguous array (the Python layer guarantees it).
+fn contiguous<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
+    py: Python<'_>,
+    a: &'a numpy::PyReadonlyArray<'_, T, D>,
+) -> PyResult<&'a [T]> {
+    a.as_slice().map_err(|_| shape_error(py, "internal: arrays must be C-contiguous".into()))
+}
+
 impl Input {
+    /// Copies `points` (n, d) float64, `cells` (m, 4) or (m, 3) int64 (indices checked) and
+    /// `weights` (n,) float64.
     pub fn new(
         py: Python<'_>,
         points: &PyReadonlyArray2<'_, f64>,
@@ -31,142 +46,112 @@ impl Input {
         weights: Option<&PyReadonlyArray1<'_, f64>>,
     ) -> PyResult<Self> {
         let [n, dim] = [points.shape()[0], points.shape()[1]];
-        // The Python layer hands over C-contiguous arrays: plain slice copies.
-        let points = contiguous(points)?.to_vec();
-        let flat = contiguous(cells)?;
+        let flat = contiguous(py, cells)?;
         let cells = match cells.shape()[1] {
-            4 => Cells::Tets(tetlap::elements_from_i64::<4>(flat, n).map_err(|e| to_py(py, e))?),
-            3 => Cells::Tris(tetlap::elements_from_i64::<3>(flat, n).map_err(|e| to_py(py, e))?),
-            k => return Err(PyValueError::new_err(format!("elements must have 3 or 4 columns, got {k}"))),
+            4 => Cells::Tets(tetlap::cells_from_i64::<Tet>(flat, n).map_err(|e| to_py(py, e))?),
+            3 => Cells::Tris(tetlap::cells_from_i64::<Tri>(flat, n).map_err(|e| to_py(py, e))?),
+            k => return Err(shape_error(py, format!("elements must have 3 or 4 columns, got {k}"))),
         };
-        let weights = weights.map(|w| w.as_slice().map(|w| w.to_vec())).transpose().map_err(|_| {
-            PyValueError::new_err("weights must be C-contiguous")
-        })?;
+        let points = contiguous(py, points)?.to_vec();
+        let weights = match weights {
+            Some(w) => Some(contiguous(py, w)?.to_vec()),
+            None => None,
+        };
         Ok(Input { points, dim, cells, weights })
     }
 
-    /// The tets, or an error for a triangle mesh (what only tets support).
-    pub fn tets(self) -> PyResult<(Vec<f64>, usize, Vec<[u32; 4]>, Option<Vec<f64>>)> {
-        match self.cells {
-            Cells::Tets(t) => Ok((self.points, self.dim, t, self.weights)),
-            Cells::Tris(_) => Err(PyValueError::new_err("this needs a tet mesh, (m, 4) elements")),
-        }
-    }
-
-    fn tet_mesh<'a>(&'a self, tets: &'a [[u32; 4]]) -> tetlap::Result<TetMesh<'a>> {
-        let mesh = TetMesh::new(&self.points, self.dim, tets)?;
+    fn mesh<'a, S: Simplex>(&'a self, cells: &'a [S::Cell]) -> tetlap::Result<Mesh<'a, S>> {
+        let mesh = Mesh::new(&self.points, self.dim, cells)?;
         match &self.weights {
             Some(w) => mesh.with_weights(w),
             None => Ok(mesh),
         }
     }
 
-    fn tri_mesh<'a>(&'a self, tris: &'a [[u32; 3]]) -> tetlap::Result<TriMesh<'a>> {
-        if self.weights.is_some() {
-            return Err(tetlap::Error::InvalidOption {
-                message: "vertex weights are supported for tet meshes only".into(),
-            });
-        }
-        TriMesh::new(&self.points, self.dim, tris)
-    }
-
-    pub fn laplacian(&self, lap: LaplacianKind, opts: &Options) -> tetlap::Result<Csr> {
+    /// Runs `job` on the validated mesh, whatever its element kind.
+    pub fn run<J: Job>(&self, job: J, opts: &Options) -> tetlap::Result<J::Output> {
         match &self.cells {
-            Cells::Tets(t) => tetlap::laplacian(&self.tet_mesh(t)?, lap, opts),
-            Cells::Tris(t) => tetlap::tri_laplacian(&self.tri_mesh(t)?, lap, opts),
+            Cells::Tets(c) => job.run(&self.mesh::<Tet>(c)?, opts),
+            Cells::Tris(c) => job.run(&self.mesh::<Tri>(c)?, opts),
         }
     }
+}
 
-    pub fn mass(&self, kind: MassKind, opts: &Options) -> tetlap::Result<Mass> {
-        match &self.cells {
-            Cells::Tets(t) => tetlap::mass(&self.tet_mesh(t)?, kind, opts),
-            Cells::Tris(t) => tetlap::tri_mass(&self.tri_mesh(t)?, kind, opts),
-        }
-    }
+/// The one-shot computations of the module.
+pub enum Request {
+    Laplacian(LaplacianKind),
+    Mass(MassKind),
+    Operators(LaplacianKind, MassKind),
+    Contributions(LaplacianKind),
+    Triplets(LaplacianKind),
+    EdgeWeights(LaplacianKind),
+}
 
-    pub fn operators(&self, lap: LaplacianKind, kind: MassKind, opts: &Options) -> tetlap::Result<(Csr, Mass)> {
-        match &self.cells {
-            Cells::Tets(t) => tetlap::operators(&self.tet_mesh(t)?, lap, kind, opts),
-            Cells::Tris(t) => tetlap::tri_operators(&self.tri_mesh(t)?, lap, kind, opts),
-        }
-    }
+/// What a [`Request`] gives.
+pub enum Response {
+    Matrix(Csr),
+    Mass(Mass),
+    Operators(Csr, Mass),
+    /// Per-element values, row-major, and the row width.
+    PerElement(Vec<f64>, usize),
+    Triplets(Coo),
+    Edges(Vec<[u32; 2]>, Vec<f64>),
+}
 
-    /// Per-element weights, flat, and the number of local edges (6 or 3).
-    pub fn contributions(&self, lap: LaplacianKind, opts: &Options) -> tetlap::Result<(Vec<f64>, usize)> {
-        Ok(match &self.cells {
-            Cells::Tets(t) => (tetlap::tet_contributions(&self.tet_mesh(t)?, lap, opts)?.into_flattened(), 6),
-            Cells::Tris(t) => (tetlap::tri_contributions(&self.tri_mesh(t)?, lap, opts)?.into_flattened(), 3),
+impl Job for Request {
+    type Output = Response;
+
+    fn run<S: Simplex>(self, mesh: &Mesh<S>, opts: &Options) -> tetlap::Result<Response> {
+        Ok(match self {
+            Request::Laplacian(kind) => Response::Matrix(tetlap::laplacian(mesh, kind, opts)?),
+            Request::Mass(kind) => Response::Mass(tetlap::mass(mesh, kind, opts)?),
+            Request::Operators(lap, mass) => {
+                let (l, m) = tetlap::operators(mesh, lap, mass, opts)?;
+                Response::Operators(l, m)
+            }
+            Request::Contributions(kind) => {
+                let w = tetlap::contributions(mesh, kind, opts)?;
+                let flat = w.iter().flat_map(|v| v.as_ref().iter().copied()).collect();
+                Response::PerElement(flat, S::EDGES.len())
+            }
+            Request::Triplets(kind) => Response::Triplets(tetlap::triplets(mesh, kind, opts)?),
+            Request::EdgeWeights(kind) => {
+                let (edges, w) = tetlap::edge_weights(mesh, kind, opts)?;
+                Response::Edges(edges, w)
+            }
         })
     }
-
-    pub fn triplets(&self, lap: LaplacianKind, opts: &Options) -> tetlap::Result<Coo> {
-        match &self.cells {
-            Cells::Tets(t) => tetlap::triplets(&self.tet_mesh(t)?, lap, opts),
-            Cells::Tris(t) => tetlap::tri_triplets(&self.tri_mesh(t)?, lap, opts),
-        }
-    }
 }
 
-/// The options tuple of the Python layer: `(threads, degenerate, boundary)`.
-#[derive(FromPyObject)]
-pub struct RawOptions(Option<usize>, String, String);
-
-impl Default for RawOptions {
-    fn default() -> Self {
-        RawOptions(None, "raise".into(), "circumcentric".into())
-    }
-}
-
-/// The data of a C-contiguous array (the Python layer guarantees it).
-fn contiguous<'a, T: numpy::Element>(a: &'a PyReadonlyArray2<'_, T>) -> PyResult<&'a [T]> {
-    a.as_slice().map_err(|_| PyValueError::new_err("internal: arrays must be C-contiguous"))
-}
-
-/// Parsed operator kinds and options.
-pub struct Spec {
-    lap: Option<LaplacianKind>,
-    mass: Option<MassKind>,
-    pub opts: Options,
-}
-
-impl Spec {
-    pub fn new(lap: Option<(&str, f64)>, mass: Option<&str>, raw: &RawOptions) -> PyResult<Self> {
-        let RawOptions(threads, degenerate, boundary) = raw;
-        let lap = lap
-            .map(|(kind, t)| match kind {
-                "primal" => Ok(LaplacianKind::Primal),
-                "dual" => Ok(LaplacianKind::Dual),
-                "affine" => Ok(LaplacianKind::Affine(t)),
-                _ => Err(PyValueError::new_err(format!("unknown Laplacian kind {kind:?}"))),
-            })
-            .transpose()?;
-        let mass = mass
-            .map(|kind| match kind {
-                "barycentric" => Ok(MassKind::Barycentric),
-                "circumcentric" => Ok(MassKind::Circumcentric),
-                "fem" => Ok(MassKind::Fem),
-                _ => Err(PyValueError::new_err(format!("unknown mass kind {kind:?}"))),
-            })
-            .transpose()?;
-        let degenerate = match degenerate.as_str() {
-            "raise" => Degenerate::Raise,
-            "skip" => Degenerate::Skip,
-            _ => return Err(PyValueError::new_err(format!("unknown degenerate policy {degenerate:?}"))),
-        };
-        let boundary = match boundary.as_str() {
-            "circumcentric" => Boundary::Circumcentric,
-            "barycentric" => Boundary::Barycentric,
-            _ => return Err(PyValueError::new_err(format!("unknown boundary treatment {boundary:?}"))),
-        };
-        Ok(Spec { lap, mass, opts: Options { threads: *threads, degenerate, boundary } })
-    }
-
-    pub fn lap(&self) -> LaplacianKind {
-        self.lap.expect("a Laplacian kind was parsed")
-    }
-
-    pub fn mass(&self) -> MassKind {
-        self.mass.expect("a mass kind was parsed")
+impl Response {
+    /// The Python value: CSR triples `(data, indices, indptr)`, masses as
+    /// `("lumped", diagonal)` or `("csr", triple)`, `(m, k)` arrays, COO triples or
+    /// `(edges, weights)`.
+    pub fn into_py(self, py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+        let as_i64 = |v: Vec<u32>| v.into_iter().map(i64::from).collect::<Vec<_>>();
+        Ok(match self {
+            Response::Matrix(l) => csr_arrays(py, l)?.into_any(),
+            Response::Mass(m) => mass_arrays(py, m)?.into_any(),
+            Response::Operators(l, m) => PyTuple::new(py, [csr_arrays(py, l)?.into_any(), mass_arrays(py, m)?.into_any()])?.into_any(),
+            Response::PerElement(values, width) => {
+                let m = values.len() / width;
+                PyArray1::from_vec(py, values).reshape([m, width])?.into_any()
+            }
+            Response::Triplets(coo) => PyTuple::new(
+                py,
+                [
+                    PyArray1::from_vec(py, as_i64(coo.rows)).into_any(),
+                    PyArray1::from_vec(py, as_i64(coo.cols)).into_any(),
+                    PyArray1::from_vec(py, coo.vals).into_any(),
+                ],
+            )?
+            .into_any(),
+            Response::Edges(edges, w) => {
+                let flat: Vec<i64> = edges.iter().flat_map(|e| e.map(i64::from)).collect();
+                let edges = PyArray1::from_vec(py, flat).reshape([w.len(), 2])?;
+                PyTuple::new(py, [edges.into_any(), PyArray1::from_vec(py, w).into_any()])?.into_any()
+            }
+        })
     }
 }
 
@@ -181,24 +166,15 @@ pub fn indptr_array<'py>(py: Python<'py>, indptr: &[usize]) -> Bound<'py, PyAny>
 
 /// `(data float64, indices uint32, indptr int32|int64)`, data and indices moved without a
 /// copy (the Python side views the uint32 indices, all `< 2^31`, as int32).
-pub fn csr_arrays<'py>(py: Python<'py>, m: Csr) -> PyResult<Bound<'py, PyTuple>> {
+fn csr_arrays(py: Python<'_>, m: Csr) -> PyResult<Bound<'_, PyTuple>> {
     let indptr = indptr_array(py, &m.indptr);
-    PyTuple::new(
-        py,
-        [
-            PyArray1::from_vec(py, m.data).into_any(),
-            PyArray1::from_vec(py, m.indices).into_any(),
-            indptr,
-        ],
-    )
+    PyTuple::new(py, [PyArray1::from_vec(py, m.data).into_any(), PyArray1::from_vec(py, m.indices).into_any(), indptr])
 }
 
-/// A `(rows, K)` array from fixed-size rows, moved without copying the values twice.
-pub fn rows<'py, T: numpy::Element + Copy, const K: usize>(
-    py: Python<'py>,
-    v: Vec<[T; K]>,
-) -> PyResult<Bound<'py, PyArray2<T>>> {
-    let m = v.len();
-    let flat: Vec<T> = v.into_iter().flatten().collect();
-    PyArray1::from_vec(py, flat).reshape([m, K])
+/// `("lumped", diagonal)` or `("csr", (data, indices, indptr))`.
+fn mass_arrays(py: Python<'_>, m: Mass) -> PyResult<Bound<'_, PyTuple>> {
+    match m {
+        Mass::Lumped(d) => PyTuple::new(py, ["lumped".into_pyobject(py)?.into_any(), PyArray1::from_vec(py, d).into_any()]),
+        Mass::Consistent(c) => PyTuple::new(py, ["csr".into_pyobject(py)?.into_any(), csr_arrays(py, c)?.into_any()]),
+    }
 }

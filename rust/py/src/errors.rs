@@ -1,56 +1,216 @@
-//! Core errors and panics become the exception classes of `tetlap.errors`.
+//! Core errors and panics as the exception classes of `tetlap.errors`, worded in Python
+//! terms; the long computations run on a worker thread so that Ctrl-C reaches them.
 
+use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::{PyDict, PyType};
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::mpsc;
+use std::time::Duration;
+use tetlap::{Cancel, Error, Feature};
 
-/// The `tetlap.errors` exception for a core error, with the offending element as attributes.
-pub fn to_py(py: Python<'_>, e: tetlap::Error) -> PyErr {
+/// The exception classes of `tetlap.errors`, imported once when `_core` is initialised.
+struct Classes {
+    shape: Py<PyType>,
+    empty: Py<PyType>,
+    index: Py<PyType>,
+    non_finite: Py<PyType>,
+    repeated: Py<PyType>,
+    degenerate: Py<PyType>,
+    option: Py<PyType>,
+    internal: Py<PyType>,
+}
+
+static CLASSES: PyOnceLock<Classes> = PyOnceLock::new();
+
+/// Imports `tetlap.errors` (called from the module's initialisation).
+pub fn init(py: Python<'_>) -> PyResult<()> {
+    let module = py.import("tetlap.errors")?;
+    let class = |name: &str| -> PyResult<Py<PyType>> { Ok(module.getattr(name)?.cast_into::<PyType>()?.unbind()) };
+    let classes = Classes {
+        shape: class("ShapeError")?,
+        empty: class("EmptyMeshError")?,
+        index: class("IndexRangeError")?,
+        non_finite: class("NonFiniteError")?,
+        repeated: class("RepeatedVertexError")?,
+        degenerate: class("DegenerateElementError")?,
+        option: class("OptionError")?,
+        internal: class("InternalError")?,
+    };
+    let _ = CLASSES.set(py, classes);
+    Ok(())
+}
+
+fn classes(py: Python<'_>) -> &Classes {
+    CLASSES.get(py).expect("tetlap.errors is imported when tetlap._core is initialised")
+}
+
+/// An instance of `class(message, **attributes)` as an error.
+fn raise(py: Python<'_>, class: &Py<PyType>, message: String, attributes: &[(&str, i64)]) -> PyErr {
     let build = || -> PyResult<PyErr> {
-        let class = py.import("tetlap.errors")?.getattr(e.kind())?;
         let kwargs = PyDict::new(py);
-        use tetlap::Error::*;
-        match &e {
-            NonFiniteCoordinate { vertex, .. } | NonFiniteWeight { vertex, .. } => {
-                kwargs.set_item("vertex", vertex)?
-            }
-            IndexOutOfRange { element, index, .. } => {
-                kwargs.set_item("element", element)?;
-                kwargs.set_item("index", index)?;
-            }
-            RepeatedVertex { element, vertex } => {
-                kwargs.set_item("element", element)?;
-                kwargs.set_item("vertex", vertex)?;
-            }
-            Degenerate { element } | NonFiniteResult { element } => {
-                kwargs.set_item("element", element)?
-            }
-            _ => {}
+        for (name, value) in attributes {
+            kwargs.set_item(name, value)?;
         }
-        Ok(PyErr::from_value(class.call((e.to_string(),), Some(&kwargs))?))
+        Ok(PyErr::from_value(class.bind(py).call((message,), Some(&kwargs))?))
     };
     build().unwrap_or_else(|err| err)
 }
 
-/// Runs `f` without the GIL; a core error becomes its exception, a panic (an internal bug)
-/// becomes `tetlap.errors.InternalError` instead of an uncatchable `PanicException`.
+/// `tetlap.errors.OptionError(message)`.
+pub fn option_error(py: Python<'_>, message: String) -> PyErr {
+    raise(py, &classes(py).option, message, &[])
+}
+
+/// `tetlap.errors.ShapeError(message)`.
+pub fn shape_error(py: Python<'_>, message: String) -> PyErr {
+    raise(py, &classes(py).shape, message, &[])
+}
+
+/// The exception for a core error: the class, a message in Python terms and the offending
+/// element, vertex or index as attributes.
+pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
+    let c = classes(py);
+    let i = |x: usize| x as i64;
+    match e {
+        Error::Shape { what } => raise(py, &c.shape, what, &[]),
+        Error::EmptyMesh { .. } => raise(py, &c.empty, e.to_string(), &[]),
+        Error::TooManyVertices { .. } | Error::TooManyElements { .. } => {
+            raise(py, &c.index, e.to_string(), &[])
+        }
+        Error::NonFiniteCoordinate { vertex, .. } | Error::NonFiniteWeight { vertex, .. } => {
+            raise(py, &c.non_finite, e.to_string(), &[("vertex", i(vertex))])
+        }
+        Error::IndexOutOfRange { element, index, .. } => {
+            raise(py, &c.index, e.to_string(), &[("element", i(element)), ("index", index)])
+        }
+        Error::VertexList { vertex, .. } => {
+            raise(py, &c.index, e.to_string(), &[("vertex", vertex as i64)])
+        }
+        Error::RepeatedVertex { element, vertex } => raise(
+            py,
+            &c.repeated,
+            e.to_string(),
+            &[("element", i(element)), ("vertex", vertex as i64)],
+        ),
+        Error::Degenerate { element } => raise(
+            py,
+            &c.degenerate,
+            format!(
+                "element {element} is degenerate (zero volume); pass degenerate=\"skip\" to give \
+                 such elements zero contribution"
+            ),
+            &[("element", i(element))],
+        ),
+        Error::NonFiniteResult { element } => raise(
+            py,
+            &c.degenerate,
+            format!(
+                "element {element}: its contribution is not finite in double precision (a nearly \
+                 degenerate element, or coordinates so large that its volume overflows); pass \
+                 degenerate=\"skip\" to drop it"
+            ),
+            &[("element", i(element))],
+        ),
+        Error::AffineParameter { t } => {
+            raise(py, &c.option, format!("the affine parameter t must lie in [0, 1], got {t}"), &[])
+        }
+        Error::Threads { threads, max } => raise(
+            py,
+            &c.option,
+            format!("threads must be None or an integer from 1 to {max}, got {threads}"),
+            &[],
+        ),
+        Error::ThreadPool { reason } => {
+            raise(py, &c.option, format!("could not start the worker threads: {reason}"), &[])
+        }
+        Error::Unsupported { option, element } => {
+            let option = match option {
+                Feature::VertexWeights => "`weights`",
+                Feature::BarycentricBoundary => "boundary=\"barycentric\"",
+            };
+            raise(py, &c.option, format!("{option} applies to tet meshes only, not {element} meshes"), &[])
+        }
+        Error::Cancelled => PyKeyboardInterrupt::new_err("cancelled"),
+    }
+}
+
+/// How often a waiting call looks for Ctrl-C.
+const POLL: Duration = Duration::from_millis(50);
+
+/// Runs `f` on a worker thread without the GIL, while this thread answers signals: on
+/// Ctrl-C (or any exception raised by a signal handler) `cancel` is set, the worker stops
+/// at its next poll and that exception is raised. A core error becomes its exception; a
+/// panic (an internal bug) becomes `tetlap.errors.InternalError` instead of an uncatchable
+/// `PanicException`.
 pub fn guarded<T: Send>(
     py: Python<'_>,
+    cancel: &Cancel,
     f: impl FnOnce() -> tetlap::Result<T> + Send,
 ) -> PyResult<T> {
-    match py.detach(|| catch_unwind(AssertUnwindSafe(f))) {
+    let outcome = std::thread::scope(|scope| {
+        let (done, finished) = mpsc::channel();
+        scope.spawn(move || {
+            let _ = done.send(caught(f));
+        });
+        let mut interrupted = None;
+        let mut finished = Some(finished);
+        loop {
+            // the receiver moves into the GIL-free wait and back (it is not Sync)
+            let receiver = finished.take().expect("put back after every wait");
+            let (received, receiver) = py.detach(move || (receiver.recv_timeout(POLL), receiver));
+            finished = Some(receiver);
+            match received {
+                Ok(outcome) => return interrupted.map_or(Ok(outcome), Err),
+                Err(mpsc::RecvTimeoutError::Timeout) => {
+                    if let (None, Err(e)) = (&interrupted, py.check_signals()) {
+                        cancel.cancel();
+                        interrupted = Some(e);
+                    }
+                }
+                Err(mpsc::RecvTimeoutError::Disconnected) => {
+                    unreachable!("the worker always sends its outcome")
+                }
+            }
+        }
+    })?;
+    match outcome {
         Ok(Ok(v)) => Ok(v),
         Ok(Err(e)) => Err(to_py(py, e)),
-        Err(payload) => {
-            let what = payload
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| payload.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".into());
-            let class = py.import("tetlap.errors")?.getattr("InternalError")?;
-            Err(PyErr::from_value(class.call1((format!(
-                "internal error in tetlap's core ({what}); please report it with the input"
-            ),))?))
-        }
+        Err(panic) => Err(raise(
+            py,
+            &classes(py).internal,
+            format!("internal error in tetlap's core ({panic}); please report it with the input"),
+            &[],
+        )),
+    }
+}
+
+/// `f()`, or the message of the panic it raised.
+fn caught<T>(f: impl FnOnce() -> T) -> Result<T, String> {
+    catch_unwind(AssertUnwindSafe(f)).map_err(|payload| {
+        payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".into())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::caught;
+
+    #[test]
+    fn panics_become_their_message_and_values_pass_through() {
+        let quiet = std::panic::take_hook();
+        std::panic::set_hook(Box::new(|_| {}));
+        assert_eq!(caught(|| -> i32 { panic!("boom {}", 7) }), Err("boom 7".to_string()));
+        assert_eq!(caught(|| -> i32 { panic!("static") }), Err("static".to_string()));
+        std::panic::set_hook(quiet);
+        assert_eq!(caught(|| 3), Ok(3));
+        let err: tetlap::Result<()> = Err(tetlap::Error::Cancelled);
+        assert_eq!(caught(move || err), Ok(Err(tetlap::Error::Cancelled)));
     }
 }

@@ -1,94 +1,169 @@
 //! `tetlap._core.Mesh`: the cached-topology mesh of the core, for `tetlap.Mesh`.
+//!
+//! The mesh sits behind a read-write lock: any number of Python threads may read cached
+//! operators at once; a computation (a first request, an update) takes the lock
+//! exclusively, so an update concurrent with reads is serialised with them (each reader
+//! sees the mesh before or after the update, never in between). Locks are only taken on
+//! the worker thread, without the GIL, so they cannot deadlock with it.
 
-use crate::convert::{indptr_array, Input, RawOptions, Spec};
-use crate::errors::guarded;
-use numpy::{
-    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
-};
-use pyo3::exceptions::PyValueError;
+use crate::convert::{indptr_array, Cells, Input};
+use crate::errors::{guarded, shape_error};
+use crate::options::{BoundaryArg, DegenerateArg, Kind, MassArg, Threads};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
+use std::sync::{RwLock, RwLockReadGuard, RwLockWriteGuard};
+use tetlap::{CachedMesh, Cancel, Options, Tet, Tri};
+
+/// The cached mesh of either element kind.
+enum AnyMesh {
+    Tets(CachedMesh<Tet>),
+    Tris(CachedMesh<Tri>),
+}
+
+/// `$body` with `$mesh` bound to the cached mesh, whatever its element kind.
+macro_rules! with_mesh {
+    ($any:expr, $mesh:ident => $body:expr) => {
+        match $any {
+            AnyMesh::Tets($mesh) => $body,
+            AnyMesh::Tris($mesh) => $body,
+        }
+    };
+}
 
 /// A mesh with its topology computed once (see `tetlap.Mesh`).
-#[pyclass(module = "tetlap._core", name = "Mesh")]
+#[pyclass(module = "tetlap._core", name = "Mesh", frozen)]
 pub struct PyMesh {
-    inner: tetlap::Mesh,
+    inner: RwLock<AnyMesh>,
+    dim: usize,
+}
+
+impl PyMesh {
+    fn read(&self) -> RwLockReadGuard<'_, AnyMesh> {
+        self.inner.read().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn write(&self) -> RwLockWriteGuard<'_, AnyMesh> {
+        self.inner.write().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// A cached value from the read lock, else computed under the write lock; with this
+    /// call's cancel flag.
+    fn values(
+        &self,
+        py: Python<'_>,
+        cached: impl Fn(&AnyMesh) -> Option<Vec<f64>> + Send + Sync,
+        compute: impl FnOnce(&mut AnyMesh) -> tetlap::Result<Vec<f64>> + Send,
+    ) -> PyResult<Vec<f64>> {
+        if let Some(values) = py.detach(|| cached(&self.read())) {
+            return Ok(values);
+        }
+        let cancel = Cancel::new();
+        guarded(py, &cancel, || {
+            let mut mesh = self.write();
+            if let Some(values) = cached(&mesh) {
+                return Ok(values); // computed by another thread meanwhile
+            }
+            with_mesh!(&mut *mesh, m => m.set_cancel(Some(cancel.clone())));
+            let result = compute(&mut mesh);
+            with_mesh!(&mut *mesh, m => m.set_cancel(None));
+            result
+        })
+    }
 }
 
 #[pymethods]
 impl PyMesh {
     #[new]
-    #[pyo3(signature = (points, tets, weights, options))]
+    #[pyo3(signature = (points, cells, *, weights=None, boundary=Default::default(), degenerate=Default::default(), threads=Default::default()))]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
-        tets: PyReadonlyArray2<'_, i64>,
+        cells: PyReadonlyArray2<'_, i64>,
         weights: Option<PyReadonlyArray1<'_, f64>>,
-        options: RawOptions,
+        boundary: BoundaryArg,
+        degenerate: DegenerateArg,
+        threads: Threads,
     ) -> PyResult<Self> {
-        let (points, dim, tets, weights) = Input::new(py, &points, &tets, weights.as_ref())?.tets()?;
-        let opts = Spec::new(None, None, &options)?.opts;
-        let inner =
-            guarded(py, move || tetlap::Mesh::with_weights(points, dim, tets, weights, opts))?;
-        Ok(PyMesh { inner })
+        let Input { points, dim, cells, weights } = Input::new(py, &points, &cells, weights.as_ref())?;
+        let cancel = Cancel::new();
+        let opts = Options { threads: threads.0, degenerate: degenerate.0, boundary: boundary.0, cancel: Some(cancel.clone()) };
+        let inner = guarded(py, &cancel, move || {
+            let mut mesh = match cells {
+                Cells::Tets(c) => AnyMesh::Tets(CachedMesh::with_weights(points, dim, c, weights, opts)?),
+                Cells::Tris(c) => AnyMesh::Tris(CachedMesh::with_weights(points, dim, c, weights, opts)?),
+            };
+            with_mesh!(&mut mesh, m => m.set_cancel(None));
+            Ok(mesh)
+        })?;
+        Ok(PyMesh { inner: RwLock::new(inner), dim })
     }
 
     /// `(indices uint32, indptr int32|int64)` of the CSR pattern.
     fn pattern<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
-        let topo = self.inner.topology();
-        PyTuple::new(
-            py,
-            [PyArray1::from_slice(py, &topo.indices).into_any(), indptr_array(py, &topo.indptr)],
-        )
+        let (indices, indptr) = py.detach(|| {
+            let topo = with_mesh!(&*self.read(), m => m.topology().clone());
+            (topo.indices, topo.indptr)
+        });
+        PyTuple::new(py, [PyArray1::from_vec(py, indices).into_any(), indptr_array(py, &indptr)])
     }
 
     /// CSR data (a copy) of the Laplacian.
-    fn laplacian<'py>(&mut self, py: Python<'py>, kind: &str, t: f64) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let lap = Spec::new(Some((kind, t)), None, &RawOptions::default())?.lap();
-        let inner = &mut self.inner;
-        let values = guarded(py, move || inner.laplacian_values(lap).map(|v| v.to_vec()))?;
+    fn laplacian<'py>(&self, py: Python<'py>, kind: Kind) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let kind = kind.0;
+        let values = self.values(
+            py,
+            |mesh| with_mesh!(mesh, m => m.cached_laplacian_values(kind).map(<[f64]>::to_vec)),
+            |mesh| with_mesh!(mesh, m => m.laplacian_values(kind).map(<[f64]>::to_vec)),
+        )?;
         Ok(PyArray1::from_vec(py, values))
     }
 
     /// Values (a copy) of the mass: per vertex, or CSR data for "fem".
-    fn mass<'py>(&mut self, py: Python<'py>, kind: &str) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let mass = Spec::new(None, Some(kind), &RawOptions::default())?.mass();
-        let inner = &mut self.inner;
-        let values = guarded(py, move || inner.mass_values(mass).map(|v| v.to_vec()))?;
+    fn mass<'py>(&self, py: Python<'py>, kind: MassArg) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let kind = kind.0;
+        let values = self.values(
+            py,
+            |mesh| with_mesh!(mesh, m => m.cached_mass_values(kind).map(<[f64]>::to_vec)),
+            |mesh| with_mesh!(mesh, m => m.mass_values(kind).map(<[f64]>::to_vec)),
+        )?;
         Ok(PyArray1::from_vec(py, values))
     }
 
-    /// Moves the vertices; returns `(moved_vertices, recomputed_tets, recomputed_rows)`.
-    ///
-    /// The comparison with the current coordinates reads `points` in place, with the GIL
-    /// held (one pass, no copy); only the moved vertices' coordinates are copied, and the
-    /// recomputation runs without the GIL.
-    fn update(&mut self, py: Python<'_>, points: PyReadonlyArray2<'_, f64>) -> PyResult<(usize, usize, usize)> {
-        let dim = self.inner.dim();
-        let shape_error = |message: String| crate::errors::to_py(py, tetlap::Error::Shape { message });
-        if points.shape()[1] != dim {
-            return Err(shape_error(format!("the new points must have {dim} columns, got {}", points.shape()[1])));
+    /// Moves the vertices; returns `(moved_vertices, recomputed_elements, recomputed_rows)`.
+    fn update(&self, py: Python<'_>, points: PyReadonlyArray2<'_, f64>) -> PyResult<(usize, usize, usize)> {
+        if points.shape()[1] != self.dim {
+            let message = format!("the new points must have {} columns, got {}", self.dim, points.shape()[1]);
+            return Err(shape_error(py, message));
         }
-        let new = points
-            .as_slice()
-            .map_err(|_| PyValueError::new_err("internal: arrays must be C-contiguous"))?;
-        let moved = self.inner.moved_vertices(new).map_err(|e| crate::errors::to_py(py, e))?;
-        let coords: Vec<f64> =
-            moved.iter().flat_map(|&v| &new[v as usize * dim..(v as usize + 1) * dim]).copied().collect();
-        let inner = &mut self.inner;
-        let u = guarded(py, move || inner.move_vertices(&moved, &coords))?;
-        Ok((u.moved_vertices, u.recomputed_tets, u.recomputed_rows))
+        let new = points.as_slice().map_err(|_| shape_error(py, "internal: arrays must be C-contiguous".into()))?.to_vec();
+        let cancel = Cancel::new();
+        let u = guarded(py, &cancel, || {
+            let mut mesh = self.write();
+            with_mesh!(&mut *mesh, m => {
+                m.set_cancel(Some(cancel.clone()));
+                let result = m.update(&new);
+                m.set_cancel(None);
+                result
+            })
+        })?;
+        Ok((u.moved_vertices, u.recomputed_elements, u.recomputed_rows))
     }
 
     /// The current coordinates (a copy), `(n, d)`.
     fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let dim = self.inner.dim();
-        PyArray1::from_slice(py, self.inner.points()).reshape([self.inner.points().len() / dim, dim])
+        let points = py.detach(|| with_mesh!(&*self.read(), m => m.points().to_vec()));
+        let n = points.len() / self.dim;
+        PyArray1::from_vec(py, points).reshape([n, self.dim])
     }
 
-    /// The tets (a copy), `(m, 4)` int64.
-    fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
-        let tets: Vec<[i64; 4]> = self.inner.tets().iter().map(|t| t.map(i64::from)).collect();
-        crate::convert::rows(py, tets)
+    /// The elements (a copy), `(m, 4)` or `(m, 3)` int64.
+    fn cells<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        let (flat, k): (Vec<i64>, usize) = py.detach(|| match &*self.read() {
+            AnyMesh::Tets(m) => (m.cells().iter().flat_map(|c| c.map(i64::from)).collect(), 4),
+            AnyMesh::Tris(m) => (m.cells().iter().flat_map(|c| c.map(i64::from)).collect(), 3),
+        });
+        let m = flat.len() / k;
+        PyArray1::from_vec(py, flat).reshape([m, k])
     }
 }

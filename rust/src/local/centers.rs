@@ -2,12 +2,9 @@
 //! duals) and the barycentric boundary fix (paper Sec. 6), by the signed pieces of
 //! Eq. 17-21 taken literally.
 
-use super::{Dual, EDGES, OPPOSITE};
+use super::{Dual, EDGES, FACES, OPPOSITE};
 use crate::geometry::LocalTet;
 use glam::DVec3;
-
-/// The three corners of the face opposite corner `l`, ascending.
-const FACE: [[usize; 3]; 4] = [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]];
 
 /// Dual vertices of one tet: a point on every edge, in every face's plane, and in space.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -53,7 +50,7 @@ impl Centers {
         let x = corners(t);
         Centers {
             edges: EDGES.map(|(a, b)| power_center(&[x[a], x[b]], &[w[a], w[b]])),
-            faces: FACE.map(|f| power_center(&f.map(|k| x[k]), &f.map(|k| w[k]))),
+            faces: FACES.map(|f| power_center(&f.map(|k| x[k]), &f.map(|k| w[k]))),
             tet: power_center(&x, &w),
         }
     }
@@ -62,7 +59,7 @@ impl Centers {
     /// tet replaced by the centroid (edge points stay).
     pub fn clamp_to_centroids(mut self, t: &LocalTet) -> Self {
         let x = corners(t);
-        for (l, f) in FACE.iter().enumerate() {
+        for (l, f) in FACES.iter().enumerate() {
             let p = f.map(|k| x[k]);
             if !inside_triangle(p, self.faces[l]) {
                 self.faces[l] = (p[0] + p[1] + p[2]) / 3.0;

@@ -1,4 +1,4 @@
-//! Mass contributions of one tet that need no dual: barycentric (Eq. 3) and consistent FEM.
+//! The mass contribution of one tet that needs no dual: barycentric (Eq. 3).
 
 use super::volume;
 use crate::geometry::LocalTet;
@@ -12,11 +12,4 @@ use crate::geometry::LocalTet;
 /// ```
 pub fn barycentric_mass(t: &LocalTet) -> [f64; 4] {
     [volume(t) / 4.0; 4]
-}
-
-/// Consistent P1 mass of one tet, `M_ab = Vol (1 + delta_ab) / 20`, as
-/// `(off_diagonal, diagonal) = (Vol / 20, Vol / 10)`.
-pub fn fem_mass(t: &LocalTet) -> (f64, f64) {
-    let v = volume(t);
-    (v / 20.0, v / 10.0)
 }

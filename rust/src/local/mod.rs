@@ -1,7 +1,7 @@
 //! Per-tet kernels: pure functions of one tet's coordinates (a [`LocalTet`]) returning its
 //! contributions to the six edges and four vertices. No indices, no threads, no allocation.
 //!
-//! Local edge order (SPEC §1): `(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)`; [`EDGES`].
+//! Local edge order: `(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)`; [`EDGES`].
 //! Sign convention (paper Eq. 1): a weight `w_ij` is the off-diagonal `L[i, j]`; positive on
 //! well-shaped tets.
 
@@ -13,7 +13,7 @@ mod tri;
 
 pub use centers::{dual_from_centers, Centers};
 pub use dual::{dual, Dual};
-pub use mass::{barycentric_mass, fem_mass};
+pub use mass::barycentric_mass;
 pub use primal::primal_weights;
 pub use tri::{cotan_weights, tri_area, tri_dual, tri_is_degenerate, TRI_EDGES};
 
@@ -22,6 +22,9 @@ use glam::DVec3;
 
 /// The six edges of a tet in local order, as pairs of corners.
 pub const EDGES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
+
+/// The three corners of the face opposite corner `l`, ascending.
+pub const FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]];
 
 /// For local edge `e = (a, b)`, the other two corners `(k, l)` with `k < l`.
 pub const OPPOSITE: [(usize, usize); 6] = [(2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1)];

@@ -6,8 +6,11 @@
 use crate::geometry::LocalTri;
 use glam::DVec2;
 
-/// Edges of a triangle in local order, and the corner opposite each.
-pub const TRI_EDGES: [(usize, usize, usize); 3] = [(0, 1, 2), (0, 2, 1), (1, 2, 0)];
+/// Edges of a triangle in local order.
+pub const TRI_EDGES: [(usize, usize); 3] = [(0, 1), (0, 2), (1, 2)];
+
+/// The corner opposite each local edge.
+const OPPOSITE_CORNER: [usize; 3] = [2, 1, 0];
 
 fn corners(t: &LocalTri) -> [DVec2; 3] {
     [DVec2::ZERO, t.edges[0], t.edges[1]]
@@ -39,7 +42,10 @@ pub fn tri_area(t: &LocalTri) -> f64 {
 pub fn cotan_weights(t: &LocalTri) -> [f64; 3] {
     let x = corners(t);
     let d = det(t).abs();
-    TRI_EDGES.map(|(i, j, k)| (x[i] - x[k]).dot(x[j] - x[k]) / (2.0 * d))
+    std::array::from_fn(|e| {
+        let ((i, j), k) = (TRI_EDGES[e], OPPOSITE_CORNER[e]);
+        (x[i] - x[k]).dot(x[j] - x[k]) / (2.0 * d)
+    })
 }
 
 /// Circumcentric dual of one triangle: weights from Eq. 16, `Vol(*(ij))_k / |ij|` with the
@@ -53,7 +59,7 @@ pub fn tri_dual(t: &LocalTri) -> ([f64; 3], [f64; 3]) {
     let c = (b.perp() * a.length_squared() - a.perp() * b.length_squared()) / (-2.0 * det(t));
     let mut weights = [0.0; 3];
     let mut areas = [0.0; 3];
-    for (e, &(i, j, k)) in TRI_EDGES.iter().enumerate() {
+    for (e, (&(i, j), &k)) in TRI_EDGES.iter().zip(&OPPOSITE_CORNER).enumerate() {
         let m = (x[i] + x[j]) / 2.0;
         // Eq. 16's determinant, signed by the orientation of (x_i, x_j, x_k)
         let s = (x[j] - x[i]).perp_dot(x[k] - x[i]).signum();

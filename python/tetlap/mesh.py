@@ -7,8 +7,8 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
-from . import _arrays, _core
-from .assembly import _csr
+from . import _arrays, _core, _sparse
+from .errors import ShapeError
 
 __all__ = ["Mesh", "UpdateInfo"]
 
@@ -22,24 +22,35 @@ class UpdateInfo(NamedTuple):
 
 
 class Mesh:
-    """A tetrahedral mesh whose edge topology is computed once.
+    """A tetrahedral (or triangle) mesh whose edge topology is computed once.
 
     ``Mesh(V, T)`` validates the mesh and builds its CSR pattern and slot map; every
     operator asked for afterwards is assembled without the symbolic step, and cached.
     :meth:`update` moves vertices and refreshes the cached operators by recomputing only
-    the tets around moved vertices and re-summing only their rows (strong locality, paper
-    Sec. 7.1). Rows always sum their tets in ascending order, so the result is **bitwise
-    equal** to a fresh :func:`tetlap.laplacian` / :func:`tetlap.mass` of the new geometry.
+    the elements around moved vertices and re-summing only their rows (strong locality,
+    paper Sec. 7.1). Rows always sum their elements in a fixed order, so the result is
+    **bitwise equal** to a fresh :func:`tetlap.laplacian` / :func:`tetlap.mass` of the new
+    geometry.
 
-    Conventions, ``kind`` values, ``boundary``, ``weights``, ``degenerate`` and ``threads``
-    are those of
-    :func:`tetlap.laplacian`. The returned matrices own their values; their index arrays
-    are shared by all matrices of this Mesh and read-only (copy a matrix before changing
-    its structure in place, e.g. ``L.copy().eliminate_zeros()``). A Mesh is not meant to be
-    used from several threads at once.
+    Parameters
+    ----------
+    V : (n, d) array-like of real numbers
+        Vertex positions (see :func:`tetlap.laplacian`).
+    T : (m, 4) or (m, 3) array-like of integers
+        Tets or triangles, any orientation.
+    boundary, weights, degenerate, threads
+        As for :func:`tetlap.laplacian`; they apply to every operator of this mesh.
 
-    Example
-    -------
+    Notes
+    -----
+    The returned matrices own their values; their index arrays are shared by all matrices
+    of this Mesh and read-only (copy a matrix before changing its structure in place,
+    e.g. ``L.copy().eliminate_zeros()``). A Mesh may be used from several threads: reads
+    of cached operators run concurrently; a first request or an :meth:`update` runs alone,
+    and every reader sees the mesh before or after it, never in between.
+
+    Examples
+    --------
     >>> import tetlap
     >>> V, T = tetlap.meshes.cube(4, jitter=0.2)
     >>> mesh = tetlap.Mesh(V, T)
@@ -53,18 +64,20 @@ class Mesh:
 
     def __init__(self, V, T, *, boundary="circumcentric", weights=None, degenerate="raise",
                  threads=None) -> None:
-        V, T = _arrays.points(V), _arrays.elements(T, 4)
+        V, T = _arrays.points(V), _arrays.elements(T)
         w = _arrays.vertex_weights(weights, V.shape[0])
-        self._core = _core.Mesh(V, T, w, _arrays.options(threads, degenerate, boundary))
-        self._n = V.shape[0]
+        self._core = _core.Mesh(V, T, weights=w, boundary=boundary, degenerate=degenerate,
+                                threads=threads)
+        self._n, self._dim = V.shape
         indices, indptr = self._core.pattern()
-        self._indices = indices.view(np.int32) if indptr.dtype == np.int32 else indices.astype(np.int64)
-        self._indptr = indptr
+        pattern = _sparse.csr((np.empty(len(indices)), indices, indptr), self._n)
+        self._indices, self._indptr = pattern.indices, pattern.indptr
         self._indices.flags.writeable = False
         self._indptr.flags.writeable = False
 
     @property
     def n_vertices(self) -> int:
+        """The number of vertices n."""
         return self._n
 
     @property
@@ -74,20 +87,18 @@ class Mesh:
 
     @property
     def T(self) -> np.ndarray:
-        """The tets, (m, 4) int64 (a copy)."""
-        return self._core.tets()
+        """The elements, (m, 4) or (m, 3) int64 (a copy)."""
+        return self._core.cells()
 
     def _matrix(self, data) -> sp.csr_array:
-        return _csr((data, self._indices, self._indptr), self._n)
+        return _sparse.csr((data, self._indices, self._indptr), self._n)
 
     def laplacian(self, kind="primal") -> sp.csr_array:
         """The (n, n) Laplacian of ``kind`` (cached; see :func:`tetlap.laplacian`)."""
-        name, t = _arrays.laplacian_kind(kind)
-        return self._matrix(self._core.laplacian(name, t))
+        return self._matrix(self._core.laplacian(kind))
 
     def mass(self, kind="barycentric") -> sp.csr_array:
         """The (n, n) mass matrix of ``kind`` (cached; see :func:`tetlap.mass`)."""
-        kind = _arrays.mass_kind(kind)
         values = self._core.mass(kind)
         if kind == "fem":
             return self._matrix(values)
@@ -100,10 +111,11 @@ class Mesh:
     def update(self, V) -> UpdateInfo:
         """Move the vertices to ``V`` ((n, d), same shape) and refresh the cached operators.
 
-        Only tets around vertices whose coordinates changed are recomputed. On error (a
-        tet became degenerate, non-finite coordinates, wrong shape) the Mesh is unchanged.
+        Only elements around vertices whose coordinates changed are recomputed. On error
+        (an element became degenerate, non-finite coordinates, wrong shape, Ctrl-C) the
+        Mesh is unchanged.
         """
         V = _arrays.points(V)
         if V.shape[0] != self._n:
-            raise _arrays.ShapeError(f"V must have {self._n} rows, got {V.shape[0]}")
+            raise ShapeError(f"V must have {self._n} rows, got {V.shape[0]}")
         return UpdateInfo(*self._core.update(V))

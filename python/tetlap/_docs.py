@@ -1,0 +1,85 @@
+"""The parameter descriptions that every operator function shares, written once.
+
+``@shared_docs`` replaces a line holding only ``{name}`` in a docstring by the fragment
+``name`` below, indented like the placeholder, so that ``help(tetlap.laplacian)`` shows
+every option in full. Literal braces in a docstring that uses it are doubled.
+"""
+
+from __future__ import annotations
+
+import re
+import textwrap
+
+FRAGMENTS = {
+    "mesh": """\
+V : (n, d) array-like of real numbers
+    Vertex positions, any real dtype (converted to float64). ``d >= 3`` for tets,
+    ``d >= 2`` for triangles; a larger ``d`` means an immersed mesh (e.g. a
+    tetrahedralised 3-sphere in R^4), every element computed in its own 3-space (2-space).
+T : (m, 4) or (m, 3) array-like of integers
+    Tets or triangles: 0-based vertex indices, any integer dtype, any orientation (results
+    do not depend on the orientation or vertex order of an element).""",
+    "kind": """\
+kind : {"primal", "dual"} or float, default "primal"
+    ``"primal"``: P1 FEM / cotan weights (paper Eq. 7), always negative semidefinite.
+    ``"dual"``: circumcentric DEC / finite-volume weights (Eq. 17-20), non-negative on
+    the interior of Delaunay meshes. A float ``t`` in [0, 1]: the affine family
+    ``(1 - t) L_primal + t L_dual`` (Sec. 9). For triangles primal and dual coincide (the
+    cotan Laplacian, Eq. 6 and Eq. 16 as two routes).""",
+    "mass_kind": """\
+kind : {"barycentric", "circumcentric", "fem"}, default "barycentric"
+    ``"barycentric"``: ``Vol / 4`` per tet corner (``Area / 3`` per triangle corner),
+    diagonal (Eq. 3). ``"circumcentric"``: the signed dual-cell volumes ``Vol(*i)``
+    (Eq. 4, 21), diagonal; negative entries are possible on non-Delaunay meshes.
+    ``"fem"``: the consistent P1 mass ``Vol (1 + delta_ab) / 20`` (triangles: ``/ 12``),
+    not diagonal.""",
+    "options": """\
+boundary : {"circumcentric", "barycentric"}, default "circumcentric"
+    Dual vertices of tets with a boundary face (paper Sec. 6). ``"barycentric"``: in such
+    tets a tet or face circumcenter outside its simplex is replaced by the centroid, which
+    makes their contributions to dual weights and circumcentric masses non-negative, at
+    the cost of linear precision at their vertices. Affects the dual and the
+    circumcentric mass; tets only.
+weights : (n,) array-like of real numbers, optional
+    Vertex weights in squared-length units for the dual and the circumcentric mass:
+    weighted circumcenters (equal power ``|c - x_i|^2 - w_i``), i.e. the orthogonal dual
+    of a regular triangulation (a power diagram). ``None`` or zeros: the plain dual.
+    Tets only.
+degenerate : {"raise", "skip"}, default "raise"
+    A zero-volume element (or one so flat that a value overflows float64) raises
+    :class:`tetlap.DegenerateElementError` naming it, or with ``"skip"`` contributes
+    nothing (its edges stay in the pattern).
+threads : int, optional
+    Worker threads, from 1 to ``tetlap.MAX_THREADS`` (four per core); ``None`` uses all
+    cores. The output is bitwise identical for any value.""",
+    "raises": """\
+Raises
+------
+TypeError
+    ``V`` or ``T`` is not an array-like at all.
+tetlap.TetlapError
+    A subclass naming the offending element, vertex or value for any bad input
+    (``ShapeError``, ``DtypeError``, ``EmptyMeshError``, ``IndexRangeError``,
+    ``NonFiniteError``, ``RepeatedVertexError``, ``DegenerateElementError``,
+    ``OptionError``); every one is a ``ValueError``.
+KeyboardInterrupt
+    On Ctrl-C; nothing is left half-built.""",
+}
+
+_PLACEHOLDER = re.compile(r"^([ \t]*)\{(\w+)\}[ \t]*$", re.MULTILINE)
+
+
+def expand(doc: str) -> str:
+    """``doc`` with every placeholder line replaced by its fragment."""
+
+    def fragment(match: re.Match) -> str:
+        indent, name = match.groups()
+        return textwrap.indent(FRAGMENTS[name], indent)
+
+    return _PLACEHOLDER.sub(fragment, doc).replace("{{", "{").replace("}}", "}")
+
+
+def shared_docs(f):
+    """Decorator: expand the placeholders of ``f.__doc__``."""
+    f.__doc__ = expand(f.__doc__)
+    return f
