@@ -80,19 +80,41 @@ def test_non_delaunay_dual_is_reported_indefinite_with_negative_weights():
     assert p.nsd is True
 
 
-def test_sparse_ldl_certificate_agrees_with_dense_eigenvalues(monkeypatch):
-    cases = [(tetlap.meshes.ball(700, seed=2), "primal"), (tetlap.meshes.ball(700, seed=2), "dual"),
-             (tetlap.meshes.weighted_ball(600, 0.5, seed=1), "dual")]
-    dense = [tetlap.check(tetlap.laplacian(V, T, k), V, T).nsd for (V, T), k in cases]
-    assert dense == [True, True, False]
+CERTIFICATE_CASES = {
+    "Delaunay ball, primal": (lambda: tetlap.meshes.ball(700, seed=2), "primal"),
+    "Delaunay ball, dual": (lambda: tetlap.meshes.ball(700, seed=2), "dual"),
+    "Delaunay ball, t = 0.5": (lambda: tetlap.meshes.ball(700, seed=2), 0.5),
+    "non-Delaunay ball, dual": (lambda: tetlap.meshes.weighted_ball(600, 0.5, seed=1), "dual"),
+    "slightly non-Delaunay ball, dual": (lambda: tetlap.meshes.weighted_ball(600, 0.05, seed=4), "dual"),
+    "jittered cube, dual": (lambda: tetlap.meshes.cube(6, jitter=0.24, seed=5), "dual"),
+}
+
+
+@pytest.mark.parametrize("case", list(CERTIFICATE_CASES))
+def test_certificates_never_contradict_dense_eigenvalues(monkeypatch, case):
+    mesh, kind = CERTIFICATE_CASES[case]
+    V, T = mesh()
+    L = tetlap.laplacian(V, T, kind)
+    dense = tetlap.check(L, V, T)
+    assert dense.nsd_method == "dense eigenvalues"
     monkeypatch.setattr(properties, "DENSE_NSD_MAX", 10)
-    for ((V, T), k), expected in zip(cases, dense):
-        r = tetlap.check(tetlap.laplacian(V, T, k), V, T)
-        assert "LDL" in r.nsd_method and r.nsd == expected
-    monkeypatch.setattr(properties, "SPARSE_NSD_MAX", 10)
-    (V, T), k = cases[0]
-    r = tetlap.check(tetlap.laplacian(V, T, k), V, T)
-    assert r.nsd is None and "skipped" in r.nsd_method
+    for hint in (None, kind):
+        r = tetlap.check(L, V, T, kind=hint)
+        assert r.nsd in (dense.nsd, None), (case, hint, r.nsd_method, dense.nsd_min_eigenvalue)
+        if r.nsd is False:  # the witness's Rayleigh quotient bounds the smallest eigenvalue
+            assert dense.nsd_min_eigenvalue <= r.nsd_min_eigenvalue < 0
+    # the certificates answer every one of these cases
+    assert tetlap.check(L, V, T, kind=kind).nsd == dense.nsd, case
+
+
+def test_the_primal_is_semidefinite_by_construction_only_when_it_is_the_primal(monkeypatch):
+    monkeypatch.setattr(properties, "DENSE_NSD_MAX", 10)
+    V, T = tetlap.meshes.ball(700, seed=2)
+    P = tetlap.laplacian(V, T, "primal")
+    assert "by construction" in tetlap.check(P, V, T).nsd_method
+    V2 = V.copy()
+    V2[np.abs(V2).max(axis=1) < 0.5] *= 1.001  # another geometry: not this mesh's primal
+    assert "by construction" not in tetlap.check(P, V2, T).nsd_method
 
 
 def test_mass_lines(cube):

@@ -1,77 +1,121 @@
-"""Mesh diagnostics: boundary, interior, volumes, orientation, dihedral angles, the
-local Delaunay property and well-centeredness of tetrahedral meshes.
+"""Mesh diagnostics: boundary and interior, orientation and volumes, dihedral angles, the
+local Delaunay property, well-centredness, duplicate and non-manifold elements.
 
-All functions take ``T`` as an (m, 4) integer array (any orientation) and, where geometry
-is involved, ``V`` as (n, 3) float64. Nothing is modified.
+Every function is computed by the parallel Rust core in ``O(m)`` (faces are matched by a
+counting sort on their smallest vertex, not by a global sort), answers Ctrl-C, validates
+its input like :func:`tetlap.laplacian` and never modifies it. ``T`` is an (m, 4) integer
+array of tets in any orientation; where geometry is involved, ``V`` is (n, 3) (the
+dihedral angles, volumes and well-centredness also work for tets immersed in R^d).
+
+Example
+-------
+>>> import tetlap
+>>> V, T = tetlap.meshes.cube(2)
+>>> tetlap.diagnostics.boundary_faces(T).shape, int(tetlap.diagnostics.interior_vertices(T).sum())
+((48, 3), 1)
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from . import _arrays, _core
+
 __all__ = [
-    "faces",
-    "interior_faces",
-    "orientation",
-    "degenerate_tets",
-    "dihedral_angles",
-    "min_dihedral_angles",
-    "non_delaunay_faces",
-    "non_delaunay_tets",
-    "well_centered",
-    "duplicate_tets",
-    "nonmanifold_faces",
     "DELAUNAY_RTOL",
+    "faces",
     "boundary_faces",
+    "interior_faces",
+    "nonmanifold_faces",
     "boundary_vertices",
     "interior_vertices",
     "referenced_vertices",
     "mesh_edges",
+    "duplicate_tets",
     "signed_volumes",
+    "orientation",
+    "degenerate_tets",
+    "dihedral_angles",
+    "min_dihedral_angles",
+    "well_centered",
+    "non_delaunay_faces",
+    "non_delaunay_tets",
+    "face_normals",
 ]
+
+#: Relative tolerance of the Delaunay test: a point counts as inside a circumsphere only
+#: if the lifted determinant exceeds ``DELAUNAY_RTOL`` times its Hadamard bound, so
+#: cospherical points (a Kuhn grid's cubes) are not flagged.
+DELAUNAY_RTOL = _core.DELAUNAY_RTOL
 
 # Face opposite corner c, in an order that keeps the tet's orientation (outward for c).
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
 
 
+def _vertex_count(T: np.ndarray, n: int | None) -> int:
+    needed = int(T.max()) + 1
+    if n is None:
+        return needed
+    return int(n)
+
+
+def _face_sets(T, n=None):
+    T = _arrays.elements(T, 4)
+    return T, _core.faces(T, _vertex_count(T, n))
+
+
 def faces(T) -> np.ndarray:
-    """All 4 m tet faces, (4 m, 3), row ``4 t + c`` the face opposite corner c of tet t."""
-    T = np.asarray(T)
+    """All 4 m faces of the tets, (4 m, 3) int64; row ``4 t + c`` is the face opposite
+    corner ``c`` of tet ``t``, oriented outward for a positively oriented tet."""
+    T = _arrays.elements(T, 4)
     return T[:, _FACES].reshape(-1, 3)
 
 
-def _face_keys(T) -> tuple[np.ndarray, np.ndarray]:
-    F = np.sort(faces(T), axis=1).astype(np.int64)
-    n = int(F.max()) + 1
-    key = (F[:, 0] * n + F[:, 1]) * n + F[:, 2] if n < 2**21 else None
-    if key is None:
-        _, inverse = np.unique(F, axis=0, return_inverse=True)
-        key = inverse.ravel()
-    return F, key
-
-
 def boundary_faces(T) -> np.ndarray:
-    """Faces that belong to exactly one tet, (f, 3) int64, oriented like their tet."""
-    _, key = _face_keys(T)
-    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-    once = counts[inverse.ravel()] == 1
-    return faces(T)[once].astype(np.int64)
+    """Faces that belong to exactly one tet, (f, 3) int64, oriented like their tet (outward
+    for positively oriented tets), in the order of their tets."""
+    T, (boundary, _, _) = _face_sets(T)
+    return T[boundary[:, 0][:, None], _FACES[boundary[:, 1]]]
+
+
+def interior_faces(T):
+    """Faces shared by two tets.
+
+    Returns
+    -------
+    tets : (f, 2) int64
+        The two tets of each interior face.
+    opposite : (f, 2) int64
+        The vertex of each of them that is not on the face.
+
+    Faces come in lexicographic order of their sorted vertex indices. A face shared by
+    more than two tets (non-manifold) is reported once per pair of consecutive tets
+    (ordered by tet index).
+    """
+    T, (_, interior, _) = _face_sets(T)
+    tets = interior[:, [0, 2]]
+    opposite = np.column_stack([T[interior[:, 0], interior[:, 1]], T[interior[:, 2], interior[:, 3]]])
+    return tets, opposite
+
+
+def nonmanifold_faces(T) -> np.ndarray:
+    """Faces shared by more than two tets, (k, 3) int64 sorted vertex triples, ascending."""
+    return _face_sets(T)[1][2]
 
 
 def boundary_vertices(T, n: int | None = None) -> np.ndarray:
-    """Boolean mask (n,) of vertices on a boundary face."""
-    T = np.asarray(T)
-    n = int(T.max()) + 1 if n is None else n
-    mask = np.zeros(n, dtype=bool)
-    mask[boundary_faces(T).ravel()] = True
+    """Boolean mask (n,) of the vertices on a boundary face (``n`` defaults to
+    ``T.max() + 1``)."""
+    T, (boundary, _, _) = _face_sets(T, n)
+    mask = np.zeros(_vertex_count(T, n), dtype=bool)
+    mask[T[boundary[:, 0][:, None], _FACES[boundary[:, 1]]].ravel()] = True
     return mask
 
 
 def referenced_vertices(T, n: int | None = None) -> np.ndarray:
-    """Boolean mask (n,) of vertices that belong to at least one tet."""
-    T = np.asarray(T)
-    n = int(T.max()) + 1 if n is None else n
-    mask = np.zeros(n, dtype=bool)
+    """Boolean mask (n,) of the vertices that belong to at least one tet."""
+    T = _arrays.elements(T, 4)
+    mask = np.zeros(_vertex_count(T, n), dtype=bool)
     mask[T.ravel()] = True
     return mask
 
@@ -82,29 +126,26 @@ def interior_vertices(T, n: int | None = None) -> np.ndarray:
 
 
 def mesh_edges(T) -> np.ndarray:
-    """Unique edges, (E, 2) int64 with ``i < j``, sorted lexicographically."""
-    T = np.asarray(T, dtype=np.int64)
-    E = T[:, [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]]].reshape(-1, 2)
-    return np.unique(np.sort(E, axis=1), axis=0)
+    """Unique edges, (E, 2) int64 with ``i < j``, sorted lexicographically (tets or
+    triangles)."""
+    T = _arrays.elements(T)
+    return _core.edges(T, _vertex_count(T, None))
+
+
+def duplicate_tets(T) -> np.ndarray:
+    """Boolean (m,): tets whose vertex set appeared in an earlier row (any order)."""
+    T = _arrays.elements(T, 4)
+    return _core.duplicates(T, _vertex_count(T, None))
+
+
+def _quality(V, T):
+    return _core.quality(_arrays.points(V), _arrays.elements(T, 4))
 
 
 def signed_volumes(V, T) -> np.ndarray:
-    """Signed volume per tet, (m,): ``det[x1-x0, x2-x0, x3-x0] / 6``; positive means the
-    VTK/gmsh/Medit orientation. For immersed meshes (d > 3) the unsigned volume."""
-    V = np.asarray(V, dtype=np.float64)
-    T = np.asarray(T)
-    e = V[T[:, 1:]] - V[T[:, :1]]
-    if V.shape[1] == 3:
-        return np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2])) / 6
-    gram = np.einsum("tid,tjd->tij", e, e)
-    return np.sqrt(np.maximum(np.linalg.det(gram), 0.0)) / 6
-
-
-def _edge_vectors(V, T):
-    V = np.asarray(V, dtype=np.float64)
-    T = np.asarray(T, dtype=np.int64)
-    X = V[T]
-    return X, X[:, 1:] - X[:, :1]
+    """Signed volume per tet, (m,) float64: ``det[x1-x0, x2-x0, x3-x0] / 6``; positive means
+    the VTK/gmsh/Medit orientation. For immersed meshes (d > 3) the unsigned volume."""
+    return _quality(V, T)[0]
 
 
 def orientation(V, T) -> np.ndarray:
@@ -119,119 +160,45 @@ def degenerate_tets(V, T, rtol: float = 1e-12) -> np.ndarray:
 
 
 def dihedral_angles(V, T) -> np.ndarray:
-    """The six dihedral angles of every tet in degrees, (m, 6), at the local edges
-    ``(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)``. NaN for flat tets. R^3 only."""
-    _, E = _edge_vectors(V, T)
-    g = np.stack([np.cross(E[:, 2] - E[:, 0], E[:, 1] - E[:, 0]), np.cross(E[:, 1], E[:, 2]),
-                  np.cross(E[:, 2], E[:, 0]), np.cross(E[:, 0], E[:, 1])], axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        g = g / np.linalg.norm(g, axis=2, keepdims=True)
-        # the dihedral angle at edge (a, b) is between the faces opposite the other two
-        # corners k, l: cos(theta) = -n_k . n_l for the gradient directions n
-        opposite = [(2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1)]
-        cos = np.stack([-np.einsum("ij,ij->i", g[:, k], g[:, l]) for k, l in opposite], axis=1)
-        return np.degrees(np.arccos(np.clip(cos, -1, 1)))
+    """The six dihedral angles of every tet in degrees, (m, 6) float64, at the local edges
+    ``(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)``. NaN for flat tets."""
+    return _quality(V, T)[1]
 
 
 def min_dihedral_angles(V, T) -> np.ndarray:
-    """Smallest dihedral angle of every tet in degrees, (m,)."""
-    return np.nanmin(dihedral_angles(V, T), axis=1) if len(T) else np.zeros(0)
+    """Smallest dihedral angle of every tet in degrees, (m,) (NaN for flat tets)."""
+    return dihedral_angles(V, T).min(axis=1)
 
 
-def interior_faces(T):
-    """Faces shared by two tets.
-
-    Returns
-    -------
-    tets : (f, 2) int64, the two tets of each interior face.
-    opposite : (f, 2) int64, the vertex of each of them that is not on the face.
-    Faces shared by more than two tets (non-manifold) are reported once per pair of
-    consecutive tets in the sorted order.
-    """
-    T = np.asarray(T, dtype=np.int64)
-    F = np.sort(faces(T), axis=1)
-    order = np.lexsort(F.T[::-1])
-    Fs = F[order]
-    same = np.all(Fs[1:] == Fs[:-1], axis=1)
-    first = order[:-1][same]
-    second = order[1:][same]
-    tets = np.column_stack([first // 4, second // 4])
-    opposite = np.column_stack([T[first // 4, first % 4], T[second // 4, second % 4]])
-    return tets, opposite
-
-
-#: Relative tolerance of the Delaunay test: a point counts as inside a circumsphere only
-#: if the lifted determinant exceeds ``DELAUNAY_RTOL`` times its Hadamard bound, so
-#: cospherical points (a Kuhn grid's cubes) are not flagged.
-DELAUNAY_RTOL = 1e-10
+def well_centered(V, T) -> np.ndarray:
+    """Boolean (m,): the tet's circumcenter is strictly inside it and every face's
+    circumcenter strictly inside that face (all face angles acute)."""
+    return _quality(V, T)[2]
 
 
 def non_delaunay_faces(V, T, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     """Boolean per interior face (order of :func:`interior_faces`): the opposite vertex of
     the second tet lies strictly inside the circumsphere of the first (up to ``rtol``
-    relative to the determinant's Hadamard bound). In exact arithmetic the test is
+    relative to the lifted determinant's Hadamard bound). In exact arithmetic the test is
     symmetric in the two tets. R^3 only."""
-    V = np.asarray(V, dtype=np.float64)
-    T = np.asarray(T, dtype=np.int64)
-    tets, opposite = interior_faces(T)
-    if len(tets) == 0:
-        return np.zeros(0, dtype=bool)
-    X = V[T[tets[:, 0]]] - V[opposite[:, 1]][:, None, :]  # (f, 4, 3), relative to q
-    lifted = np.concatenate([X, (X**2).sum(axis=2, keepdims=True)], axis=2)
-    det = np.linalg.det(lifted)
-    E = X[:, 1:] - X[:, :1]
-    orient = np.sign(np.einsum("ij,ij->i", E[:, 0], np.cross(E[:, 1], E[:, 2])))
-    bound = np.prod(np.linalg.norm(lifted, axis=2), axis=1)
-    # det[x_i - q, |x_i - q|^2] has the sign of -orient when q is inside the sphere
-    return -orient * det > rtol * bound
+    V = _arrays.points(V)
+    T, (_, interior, _) = _face_sets(T, len(V))
+    return _core.non_delaunay(V, T, interior, float(rtol))
 
 
 def non_delaunay_tets(V, T, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     """Boolean (m,): tets with a face whose neighbour's opposite vertex is inside their
     circumsphere (either side of the face counts)."""
-    T = np.asarray(T)
+    V = _arrays.points(V)
+    T, (_, interior, _) = _face_sets(T, len(V))
+    flags = _core.non_delaunay(V, T, interior, float(rtol))
     bad = np.zeros(len(T), dtype=bool)
-    tets, _ = interior_faces(T)
-    flags = non_delaunay_faces(V, T, rtol)
-    bad[tets[flags].ravel()] = True
+    bad[interior[flags][:, [0, 2]].ravel()] = True
     return bad
 
 
-def well_centered(V, T) -> np.ndarray:
-    """Boolean (m,): the tet's circumcenter is strictly inside it and every face's
-    circumcenter strictly inside that face (all face angles acute). R^3 only."""
-    X, E = _edge_vectors(V, T)
-    n = np.stack([np.cross(E[:, 2] - E[:, 0], E[:, 1] - E[:, 0]), np.cross(E[:, 1], E[:, 2]),
-                  np.cross(E[:, 2], E[:, 0]), np.cross(E[:, 0], E[:, 1])], axis=1)
-    det = np.einsum("ij,ij->i", E[:, 0], n[:, 1])
-    sq = (E**2).sum(axis=2)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        c = (sq[:, 0, None] * n[:, 1] + sq[:, 1, None] * n[:, 2] + sq[:, 2, None] * n[:, 3]) / (
-            2 * det[:, None])
-        lam = np.stack([np.einsum("ij,ij->i", n[:, 0], c - E[:, 0])] +
-                       [np.einsum("ij,ij->i", n[:, k], c) for k in (1, 2, 3)], axis=1) / det[:, None]
-    inside = np.all(lam > 0, axis=1)
-    # every face angle acute: for each corner a and pair (b, c) of others, (b-a).(c-a) > 0
-    for a in range(4):
-        others = [b for b in range(4) if b != a]
-        for i in range(3):
-            for j in range(i + 1, 3):
-                d = np.einsum("ij,ij->i", X[:, others[i]] - X[:, a], X[:, others[j]] - X[:, a])
-                inside &= d > 0
-    return inside
-
-
-def duplicate_tets(T) -> np.ndarray:
-    """Boolean (m,): tets whose vertex set appeared in an earlier row (any order)."""
-    S = np.sort(np.asarray(T, dtype=np.int64), axis=1)
-    _, first = np.unique(S, axis=0, return_index=True)
-    dup = np.ones(len(S), dtype=bool)
-    dup[first] = False
-    return dup
-
-
-def nonmanifold_faces(T) -> np.ndarray:
-    """Faces shared by more than two tets, (f, 3) sorted vertex triples."""
-    F = np.sort(faces(T), axis=1)
-    keys, counts = np.unique(F, axis=0, return_counts=True)
-    return keys[counts > 2]
+def face_normals(V, F) -> np.ndarray:
+    """Area vectors of triangles ``F`` (k, 3) over ``V`` (n, 3): ``(x1 - x0) x (x2 - x0) /
+    2``, (k, 3) float64 (length = area, direction by the right-hand rule)."""
+    P = _arrays.points(V)[np.asarray(F)]
+    return np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]) / 2

@@ -1,5 +1,9 @@
 """Which of the paper's Table 1 properties an operator has on a given mesh, with numbers.
 
+Every check costs ``O(size of the mesh)``: the pattern, sign and precision checks are one
+parallel pass of the Rust core, and semidefiniteness is answered by a certificate (see
+:func:`check`), not by a sparse factorisation.
+
 >>> import tetlap
 >>> V, T = tetlap.meshes.cube(3)
 >>> report = tetlap.check(tetlap.laplacian(V, T, "primal"), V, T)
@@ -11,31 +15,25 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 
 import numpy as np
 import scipy.sparse as sp
 
-from . import _arrays
-from .errors import DtypeError, IndexRangeError, OptionError, ShapeError
-from .diagnostics import (
-    boundary_vertices,
-    interior_vertices,
-    mesh_edges,
-    referenced_vertices,
-    signed_volumes,
-)
+from . import _arrays, _core, assembly, diagnostics
+from .errors import OptionError, ShapeError
 
-__all__ = ["check", "Report", "NEGATIVE_TOL"]
+__all__ = ["check", "Report", "NEGATIVE_TOL", "TOL", "NSD_RTOL", "DENSE_NSD_MAX", "SPARSE_NSD_MAX"]
 
 #: A weight counts as negative when ``w < -NEGATIVE_TOL * max|w|``: weights that are zero
 #: up to rounding (right dihedral angles of a Kuhn grid) do not count.
 NEGATIVE_TOL = 1e-12
 #: Relative tolerance of the symmetry, row-sum and linear-precision checks.
 TOL = 1e-10
-#: Largest n for the dense eigenvalue route of the NSD check.
+#: ``L`` counts as negative semidefinite when ``lambda_min(-L) >= -NSD_RTOL * max|L|``.
+NSD_RTOL = 1e-9
+#: Largest n for which the NSD check computes all eigenvalues (exact, dense).
 DENSE_NSD_MAX = 2500
-#: Largest n for the sparse LDL-inertia route of the NSD check (beyond: skipped).
-SPARSE_NSD_MAX = 300_000
 
 
 @dataclasses.dataclass
@@ -44,6 +42,8 @@ class Report:
 
     Every quantity is a plain Python number (or None when it does not apply, with the
     reason in ``notes``); the ``*_ok`` flags compare them with the documented tolerances.
+    ``nsd_min_eigenvalue`` is the smallest eigenvalue of ``-L`` (dense route) or, for an
+    indefinite ``L``, the Rayleigh quotient of the witness (an upper bound on it).
     """
 
     n_vertices: int
@@ -77,7 +77,8 @@ class Report:
         """A JSON-serialisable dict of every field."""
         return dataclasses.asdict(self)
 
-    def __str__(self) -> str:
+    def rows(self) -> list[tuple[str, bool | None, str]]:
+        """The table's rows: ``(property, passed, numbers)``."""
         rows = [
             ("finite (no NaN/Inf)", self.finite, ""),
             ("symmetric", self.symmetric, f"max |L - L^T| = {self.symmetry_error:.2e}"),
@@ -86,11 +87,11 @@ class Report:
             ("linear precision (interior)", self.linear_precision_ok,
              _fmt(self.linear_precision_residual, "relative residual {:.2e}")),
             ("negative semidefinite", self.nsd,
-             _fmt(self.nsd_min_eigenvalue, "min eig(-L) {:.3e}") + f" [{self.nsd_method}]"),
+             _fmt(self.nsd_min_eigenvalue, "min eig(-L) {:.3e} ") + f"[{self.nsd_method}]"),
             ("non-negative weights", self.n_negative == 0,
              f"{self.n_negative}/{self.n_edges} negative ({100 * self.negative_fraction:.2f}%), "
              f"min w = {self.min_weight:.3e}"),
-            ("  ... not both on boundary", self.n_negative_interior == 0,
+            ("  ... edges not both on the boundary", self.n_negative_interior == 0,
              f"{self.n_negative_interior}/{self.n_edges_interior} negative "
              f"({100 * self.negative_fraction_interior:.2f}%)"),
         ]
@@ -100,6 +101,10 @@ class Report:
             rows.append(("mass total = volume",
                          math.isclose(self.mass_total, self.mesh_volume, rel_tol=1e-9),
                          f"{self.mass_total:.12g} vs {self.mesh_volume:.12g}"))
+        return rows
+
+    def __str__(self) -> str:
+        rows = self.rows()
         width = max(len(r[0]) for r in rows)
         mark = {True: "yes", False: "NO", None: "n/a"}
         lines = [f"{self.n_vertices} vertices, {self.n_tets} tets"]
@@ -112,120 +117,209 @@ def _fmt(value, template: str) -> str:
     return "" if value is None else template.format(value)
 
 
-def check(L, V, T, M=None, *, negative_tol: float = NEGATIVE_TOL, nsd: bool = True) -> Report:
+def _canonical(L, n: int) -> sp.csr_array:
+    """``L`` as a new float64 csr_array with summed duplicates and sorted indices."""
+    if not (sp.issparse(L) or isinstance(L, np.ndarray)):
+        raise TypeError(f"L must be a SciPy sparse array or matrix, got {type(L).__name__}")
+    L = sp.csr_array(L, dtype=np.float64, copy=True)
+    if L.shape != (n, n):
+        raise ShapeError(f"L has shape {L.shape}, expected ({n}, {n})")
+    L.sum_duplicates()
+    L.sort_indices()
+    return L
+
+
+def _csr_args(A: sp.csr_array):
+    return A.data, A.indices.astype(np.int64), A.indptr.astype(np.int64)
+
+
+def check(L, V, T, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL,
+          nsd: bool = True) -> Report:
     """Check a Laplacian ``L`` (and mass ``M``) of the mesh ``(V, T)`` against Table 1.
 
     Parameters
     ----------
-    L : (n, n) sparse array or matrix (any format), the paper's sign convention.
-    V : (n, d) array-like.  T : (m, 4) integer array-like.
-    M : optional (n, n) mass matrix (lumped or consistent).
-    negative_tol : a weight is negative when ``w < -negative_tol * max|w|``.
-    nsd : set False to skip the (costliest) semidefiniteness check.
+    L : (n, n) SciPy sparse array or matrix (any format)
+        In the paper's sign convention (``L[i, i] = -sum_j L[i, j]``). Not modified.
+    V : (n, d) array-like of real numbers
+        Vertex positions.
+    T : (m, 4) array-like of integers
+        Tets, any orientation.
+    M : (n, n) SciPy sparse array or matrix, optional
+        A mass matrix (lumped or consistent): positivity and total volume are checked.
+    kind : {"primal", "dual"} or float, optional
+        What ``L`` is meant to be, if known; it only helps the semidefiniteness check
+        (see Notes). Without it, ``L`` is compared with the primal of the mesh.
+    negative_tol : float, default 1e-12
+        A weight is negative when ``w < -negative_tol * max|w|``.
+    nsd : bool, default True
+        False skips the semidefiniteness check.
 
     Returns
     -------
-    Report, a dataclass (``to_dict()``; ``str()`` is a table). Linear precision (Eq. 26)
-    is ``max_i |(L V)_i|`` over interior vertices relative to ``max|L| * diameter``; it
-    applies to meshes in R^3 only (an immersed mesh is curved). NSD is the smallest
-    eigenvalue of ``-L`` (dense, n <= 2500) or the inertia of a sparse LDL^T factorisation
-    of ``-L + eps I`` with ``eps = 1e-9 max|L|`` (n <= 300000); beyond that it is skipped.
+    Report
+        A dataclass (``to_dict()``; ``str()`` is a table).
+
+    Notes
+    -----
+    Linear precision (Eq. 26) is ``max_i |(L V)_i|`` over interior vertices relative to
+    ``max|L| * diameter``; it applies to meshes in R^3 (an immersed mesh is curved).
+
+    ``L`` counts as negative semidefinite when ``lambda_min(-L) >= -1e-9 max|L|``
+    (``NSD_RTOL``). The answer is, in this order: for ``n <= 2500``, the smallest
+    eigenvalue of ``-L`` (dense, exact); if ``L`` equals the mesh's primal Laplacian (to
+    1e-12 relative), **by construction**, since ``-L`` is a sum of per-tet Gram matrices
+    ``Vol_t G_t G_t^T``, each positive semidefinite; for ``kind=t`` in (0, 1) with ``L``
+    the affine combination, the certificate of its dual part; otherwise the certificate of
+    :func:`tetlap._core.negative_semidefinite`: non-negative weights (a weighted graph
+    Laplacian), or every negative weight covered by the positive weights of its
+    neighbourhood (a sum of small positive semidefinite matrices), or a witness vector on
+    a small neighbourhood with a negative Rayleigh quotient (indefinite, by interlacing).
+    Those steps cost ``O(size of the mesh)``. When none of them answers and ``n <= 30000``
+    (``SPARSE_NSD_MAX``), the inertia of a sparse LDL^T of ``-L + 1e-9 max|L| I`` decides
+    (seconds at that size); otherwise ``nsd`` is None and ``nsd_method`` says why.
+
+    Examples
+    --------
+    >>> import tetlap
+    >>> V, T = tetlap.meshes.weighted_ball(600, 1.0, seed=1)
+    >>> r = tetlap.check(tetlap.laplacian(V, T, "dual"), V, T)
+    >>> r.nsd, r.n_negative_interior > 0
+    (False, True)
     """
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
     n = V.shape[0]
-    L = sp.csr_array(L, dtype=np.float64)
-    if L.shape != (n, n):
-        raise ShapeError(f"L has shape {L.shape}, expected ({n}, {n})")
+    if kind is not None and not (kind in ("primal", "dual") or (
+            isinstance(kind, numbers.Real) and not isinstance(kind, bool) and 0 <= kind <= 1)):
+        raise OptionError(f'kind must be None, "primal", "dual" or a float t in [0, 1], got {kind!r}')
+    L = _canonical(L, n)
+    boundary = diagnostics.boundary_vertices(T, n)
+    c = _core.check_operator(V, T, *_csr_args(L), boundary, float(negative_tol))
     notes: list[str] = []
-    finite = bool(np.isfinite(L.data).all())
-    scale = float(abs(L).max()) if L.nnz else 0.0
-    scale = scale if scale > 0 else 1.0
-
-    asym = float(abs(L - L.T).max()) if L.nnz else 0.0
-    row_sum = float(np.abs(L.sum(axis=1)).max())
-
-    edges = mesh_edges(T)
-    coo = L.tocoo()
-    off = coo.row != coo.col
-    r, c = np.minimum(coo.row[off], coo.col[off]), np.maximum(coo.row[off], coo.col[off])
-    edge_key = edges[:, 0] * n + edges[:, 1]
-    local = bool(np.isin(r.astype(np.int64) * n + c, edge_key).all())
-
-    # weights of the mesh edges (missing entries are 0)
-    w = np.asarray(L[edges[:, 0], edges[:, 1]]).ravel()
-    w_scale = float(np.abs(w).max()) if w.size else 1.0
-    negative = w < -negative_tol * w_scale
-    on_boundary = boundary_vertices(T, n)
-    inner = ~(on_boundary[edges[:, 0]] & on_boundary[edges[:, 1]])
-
-    interior = interior_vertices(T, n)
+    scale = c["scale"] if c["scale"] > 0 else 1.0
+    lp = c["linear_precision"]
     if V.shape[1] != 3:
-        lp, lp_ok = None, None
         notes.append("linear precision: not applicable to an immersed (d > 3) mesh")
-    elif not interior.any():
-        lp, lp_ok = None, None
+    elif lp is None:
         notes.append("linear precision: the mesh has no interior vertices")
-    else:
-        diam = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
-        lp = float(np.abs((L @ V)[interior]).max() / (scale * diam))
-        lp_ok = lp < TOL
 
-    nsd_ok, min_eig, method = (None, None, "skipped (nsd=False)")
-    if nsd and finite:
-        nsd_ok, min_eig, method = _nsd(L, scale)
+    nsd_ok, min_eig, method = None, None, "skipped (nsd=False)"
+    if nsd and not c["finite"]:
+        method = "skipped (not finite)"
+    elif nsd:
+        nsd_ok, min_eig, method = _nsd(L, V, T, scale, kind)
 
+    edges, inner = c["n_edges"], c["n_edges_inner"]
     report = Report(
         n_vertices=n,
         n_tets=int(T.shape[0]),
-        finite=finite,
-        symmetric=asym <= TOL * scale,
-        symmetry_error=asym,
-        max_row_sum=row_sum,
-        row_sums_ok=row_sum <= TOL * scale,
-        local=local,
+        finite=c["finite"],
+        symmetric=c["symmetry_error"] <= TOL * scale,
+        symmetry_error=c["symmetry_error"],
+        max_row_sum=c["max_row_sum"],
+        row_sums_ok=c["max_row_sum"] <= TOL * scale,
+        local=c["local"],
         linear_precision_residual=lp,
-        linear_precision_ok=lp_ok,
+        linear_precision_ok=None if lp is None else lp < TOL,
         nsd=nsd_ok,
         nsd_min_eigenvalue=min_eig,
         nsd_method=method,
-        min_weight=float(w.min()) if w.size else 0.0,
-        n_edges=int(w.size),
-        n_negative=int(negative.sum()),
-        negative_fraction=float(negative.mean()) if w.size else 0.0,
-        n_edges_interior=int(inner.sum()),
-        n_negative_interior=int((negative & inner).sum()),
-        negative_fraction_interior=float((negative & inner).sum() / max(inner.sum(), 1)),
+        min_weight=c["min_weight"],
+        n_edges=edges,
+        n_negative=c["n_negative"],
+        negative_fraction=c["n_negative"] / edges if edges else 0.0,
+        n_edges_interior=inner,
+        n_negative_interior=c["n_negative_inner"],
+        negative_fraction_interior=c["n_negative_inner"] / inner if inner else 0.0,
         negative_tol=negative_tol,
         notes=notes,
     )
     if M is not None:
-        M = sp.csr_array(M, dtype=np.float64)
-        lumped = M.sum(axis=1)
+        M = _canonical(M, n)
+        lumped = np.asarray(M.sum(axis=1)).ravel()
         report.mass_min = float(lumped.min())
-        report.mass_nonpositive = int((lumped[referenced_vertices(T, n)] <= 0).sum())
+        report.mass_nonpositive = int((lumped[diagnostics.referenced_vertices(T, n)] <= 0).sum())
         report.mass_total = float(M.sum())
-        report.mesh_volume = float(np.abs(signed_volumes(V, T)).sum())
+        report.mesh_volume = float(np.abs(diagnostics.signed_volumes(V, T)).sum())
     return report
 
 
-def _nsd(L, scale: float):
-    """(is NSD, smallest eigenvalue of -L or None, method)."""
+#: Largest n for the last NSD step, the inertia of a sparse LDL^T factorisation.
+SPARSE_NSD_MAX = 30_000
+
+
+def _ldl_inertia(A: sp.csr_array, eps: float) -> int | None:
+    """Negative pivots of a symmetric-mode LU (an LDL^T with diagonal pivoting and a
+    fill-reducing ordering) of ``A + eps I``: by Sylvester's law, the number of
+    eigenvalues of ``A`` below ``-eps``. None if the factorisation had to pivot off the
+    diagonal. Runs on a helper thread (SuperLU releases the GIL), so Ctrl-C is answered
+    at once; an interrupted factorisation finishes in the background and is dropped."""
+    import concurrent.futures
+    from scipy.sparse.linalg import splu
+
+    shifted = sp.csc_array(A + eps * sp.eye_array(A.shape[0]))
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=1)
+    job = pool.submit(splu, shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                      options={"SymmetricMode": True})
+    pool.shutdown(wait=False)
+    while True:
+        try:
+            lu = job.result(timeout=0.1)
+            break
+        except concurrent.futures.TimeoutError:
+            continue
+    if not np.array_equal(lu.perm_r, lu.perm_c):
+        return None
+    return int((lu.U.diagonal() < 0).sum())
+
+
+def _difference(A: sp.csr_array, B: sp.csr_array) -> float:
+    """The row-sum norm ``max_i sum_j |A_ij - B_ij|`` (a bound on the spectral norm)."""
+    return float(np.abs(A - B).sum(axis=1).max()) if A.nnz or B.nnz else 0.0
+
+
+def _nsd(L: sp.csr_array, V, T, scale: float, kind):
+    """(is NSD, smallest eigenvalue of -L or a witness' Rayleigh quotient, method)."""
     n = L.shape[0]
+    tol = NSD_RTOL * scale
     A = -(L + L.T) / 2
     if n <= DENSE_NSD_MAX:
         lam = float(np.linalg.eigvalsh(A.toarray())[0])
-        return lam >= -1e-9 * scale, lam, "dense eigenvalues"
-    if n > SPARSE_NSD_MAX:
-        return None, None, f"skipped (n > {SPARSE_NSD_MAX})"
-    from scipy.sparse.linalg import splu
-
-    eps = 1e-9 * scale
-    shifted = sp.csc_array(A + eps * sp.eye_array(n))
-    lu = splu(shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-              options={"SymmetricMode": True})
-    if np.array_equal(lu.perm_r, lu.perm_c):
-        negatives = int((lu.U.diagonal() < 0).sum())
-        return negatives == 0, None, (
-            f"inertia of LDL^T of -L + {eps:.1e} I: {negatives} negative pivots")
-    return None, None, "skipped (the factorisation pivoted off the diagonal)"
+        return lam >= -tol, lam, "dense eigenvalues"
+    if kind in (None, "primal"):
+        primal = assembly.laplacian(V, T, "primal", degenerate="skip")
+        gap = _difference(L, primal)
+        if gap <= 1e-12 * scale:
+            return True, None, (f"by construction: L is the primal Laplacian (to {gap:.1e}), a sum "
+                                "of per-tet Gram matrices")
+    target, note = L, ""
+    if isinstance(kind, numbers.Real) and not isinstance(kind, bool) and 0 < kind < 1:
+        primal = assembly.laplacian(V, T, "primal", degenerate="skip")
+        dual = assembly.laplacian(V, T, "dual", degenerate="skip")
+        gap = _difference(L, (1 - kind) * primal + kind * dual)
+        if gap <= 1e-12 * scale:
+            target, note = dual, f" of the dual part (L = {1 - kind:g} primal + {kind:g} dual)"
+    S = (target + target.T) / 2
+    S.sort_indices()
+    verdict, name, details = _core.negative_semidefinite(n, *_csr_args(S), tol)
+    if name == "local certificate":
+        name = (f"local certificate{note}: {details['groups']} neighbourhoods of <= "
+                f"{details['largest']} vertices cover every negative weight")
+    elif name == "indefinite":
+        return False, details["rayleigh"], (
+            f"witness{note}: a vector on {details['support']} vertices around vertex "
+            f"{details['vertex']} with Rayleigh quotient {details['rayleigh']:.3e}")
+    elif name == "undetermined":
+        reason = (f"{details['uncovered']} negative weights not covered by neighbourhoods of "
+                  f"<= {_core.MAX_GROUP} vertices")
+        if n > SPARSE_NSD_MAX:
+            return None, None, f"undetermined{note}: {reason} (n > {SPARSE_NSD_MAX})"
+        negatives = _ldl_inertia(-S, tol)
+        if negatives is None:
+            return None, None, f"undetermined{note}: {reason}; the LDL^T pivoted off the diagonal"
+        return negatives == 0, None, (f"inertia of a sparse LDL^T of -L + {tol:.1e} I{note}: "
+                                      f"{negatives} negative pivots ({reason})")
+    else:
+        name += note
+    return verdict, None, name

@@ -5,6 +5,7 @@ use crate::assemble::{laplacian_values, mass_values, with_threads};
 use crate::csr::{Csr, Mass};
 use crate::element::{boundary_mask, Element, Elements, Fault};
 use crate::error::{Error, Result};
+use crate::layout::Layout;
 use crate::mesh::Mesh;
 use crate::options::{LaplacianKind, MassKind, Options};
 use crate::pass::{chunked, fault_to_error, per_element, per_element_subset, CHUNK};
@@ -48,7 +49,7 @@ pub struct Update {
 /// moved[14] = 1.5; // vertex 4 moves
 /// let update = mesh.update(&moved)?;
 /// assert_eq!(update.moved_vertices, 1);
-/// let fresh = tetlap::laplacian(&TetMesh::new(&moved, 3, mesh.cells())?,
+/// let fresh = tetlap::laplacian(&TetMesh::new(&moved, 3, &mesh.cells())?,
 ///                               LaplacianKind::Dual, &Options::default())?;
 /// assert_eq!(mesh.laplacian(LaplacianKind::Dual)?, fresh);
 /// assert_ne!(before, fresh);
@@ -56,10 +57,9 @@ pub struct Update {
 /// ```
 #[derive(Debug, Clone)]
 pub struct CachedMesh<S: Simplex = Tet> {
-    points: Vec<f64>,
-    dim: usize,
-    cells: Vec<S::Cell>,
-    weights: Option<Vec<f64>>,
+    /// The mesh in internal order (coordinates kept up to date by updates).
+    layout: Layout<S>,
+    /// Internal elements with the barycentric boundary fix.
     boundary: Option<Vec<bool>>,
     opts: Options,
     topology: Topology,
@@ -82,34 +82,54 @@ impl<S: Simplex> CachedMesh<S> {
         opts: Options,
     ) -> Result<Self> {
         let mesh = Mesh::<S>::new(&points, dim, &cells)?;
-        if let Some(w) = &weights {
-            mesh.with_weights(w)?;
-        }
-        let (topology, boundary) = with_threads::<S, _>(&opts, || {
+        let mesh = match &weights {
+            Some(w) => mesh.with_weights(w)?,
+            None => mesh,
+        };
+        let (layout, topology, boundary) = with_threads::<S, _>(&opts, || {
+            let layout = Layout::new(&mesh, &opts)?;
             let (topology, boundary) = rayon::join(
-                || Topology::new::<S>(&cells, points.len() / dim),
-                || boundary_mask(&mesh, &opts),
+                || Topology::new::<S>(&layout, &cells, &opts),
+                || boundary_mask(&layout.mesh(), &opts),
             );
-            Ok((topology?, boundary))
+            Ok((layout, topology?, boundary))
         })?;
         opts.cancelled()?;
         let (laplacians, masses) = (vec![], vec![]);
-        Ok(CachedMesh { points, dim, cells, weights, boundary, opts, topology, laplacians, masses })
+        Ok(CachedMesh { layout, boundary, opts, topology, laplacians, masses })
     }
 
-    /// The current coordinates, row-major `(n, dim)`.
-    pub fn points(&self) -> &[f64] {
-        &self.points
+    /// The current coordinates in the user's order, row-major `(n, dim)` (a copy).
+    pub fn points(&self) -> Vec<f64> {
+        let (dim, internal) = (self.layout.dim, &self.layout.points);
+        let mut out = vec![0.0; internal.len()];
+        for (p, &u) in internal.chunks_exact(dim).zip(&self.layout.vertex_of) {
+            out[u as usize * dim..][..dim].copy_from_slice(p);
+        }
+        out
     }
 
-    /// The elements.
-    pub fn cells(&self) -> &[S::Cell] {
-        &self.cells
+    /// The elements in the user's order and numbering (a copy).
+    pub fn cells(&self) -> Vec<S::Cell> {
+        let mut out = vec![S::Cell::default(); self.layout.cells.len()];
+        for (cell, &t) in self.layout.cells.iter().zip(&self.layout.element_of) {
+            let mut user = *cell;
+            for v in user.as_mut() {
+                *v = self.layout.vertex_of[*v as usize];
+            }
+            out[t as usize] = user;
+        }
+        out
+    }
+
+    /// Number of vertices.
+    pub fn n_vertices(&self) -> usize {
+        self.layout.n_vertices()
     }
 
     /// Ambient dimension.
     pub fn dim(&self) -> usize {
-        self.dim
+        self.layout.dim
     }
 
     /// The options the mesh was built with.
@@ -128,9 +148,9 @@ impl<S: Simplex> CachedMesh<S> {
         &self.topology
     }
 
-    fn elements<'a>(&'a self, points: &'a [f64]) -> Elements<'a, S> {
-        let mesh = Mesh::trusted(points, self.dim, &self.cells, self.weights.as_deref());
-        Elements::with_mask(mesh, self.boundary.as_deref())
+    fn elements(&self) -> Elements<'_, S> {
+        let boundary = self.boundary.as_deref().map(std::borrow::Cow::Borrowed);
+        Elements::internal(self.layout.mesh(), &self.layout.element_of, boundary)
     }
 
     /// CSR data of the Laplacian of `kind` on [`CachedMesh::topology`]'s pattern, if it is
@@ -146,12 +166,11 @@ impl<S: Simplex> CachedMesh<S> {
         if let Some(index) = self.laplacians.iter().position(|c| c.kind == kind) {
             return Ok(&self.laplacians[index].values);
         }
-        let (elements, topo, opts) = (self.elements(&self.points), &self.topology, &self.opts);
+        let (elements, topo, opts) = (self.elements(), &self.topology, &self.opts);
         let cached = with_threads::<S, _>(opts, || {
-            let mut w = vec![S::EdgeValues::default(); self.cells.len()];
+            let mut w = vec![S::EdgeValues::default(); self.layout.cells.len()];
             per_element(&elements, opts, &mut w, |el| el.weights(kind))?;
-            let values = laplacian_values::<S>(topo, &w, None, vec![0.0; topo.nnz()]);
-            opts.cancelled()?;
+            let values = laplacian_values::<S>(topo, &w, None, vec![0.0; topo.nnz()], opts)?;
             Ok(Cached { kind, per_element: w, values })
         })?;
         self.laplacians.push(cached);
@@ -175,12 +194,11 @@ impl<S: Simplex> CachedMesh<S> {
         if let Some(index) = self.masses.iter().position(|c| c.kind == kind) {
             return Ok(&self.masses[index].values);
         }
-        let (elements, topo, opts) = (self.elements(&self.points), &self.topology, &self.opts);
+        let (elements, topo, opts) = (self.elements(), &self.topology, &self.opts);
         let cached = with_threads::<S, _>(opts, || {
-            let mut m = vec![S::CornerValues::default(); self.cells.len()];
+            let mut m = vec![S::CornerValues::default(); self.layout.cells.len()];
             per_element(&elements, opts, &mut m, |el| el.corner_mass(kind))?;
-            let values = mass_values::<S>(topo, kind, &m, None, vec![]);
-            opts.cancelled()?;
+            let values = mass_values::<S>(topo, kind, &m, None, vec![], opts)?;
             Ok(Cached { kind, per_element: m, values })
         })?;
         self.masses.push(cached);
@@ -196,48 +214,48 @@ impl<S: Simplex> CachedMesh<S> {
         })
     }
 
-    /// Moves the vertices to `points` (same shape, finite) and refreshes every cached
-    /// operator (see [`CachedMesh::move_vertices`]).
+    /// Moves the vertices to `points` (user order, same shape, finite) and refreshes every
+    /// cached operator (see [`CachedMesh::move_vertices`]).
     pub fn update(&mut self, points: &[f64]) -> Result<Update> {
         let moved = self.moved_vertices(points)?;
-        let dim = self.dim;
-        let coords: Vec<f64> =
-            moved.iter().flat_map(|&v| &points[v as usize * dim..(v as usize + 1) * dim]).copied().collect();
+        let dim = self.layout.dim;
+        let coords: Vec<f64> = moved.iter().flat_map(|&v| &points[v as usize * dim..][..dim]).copied().collect();
         self.move_vertices(&moved, &coords)
     }
 
-    /// The vertices whose coordinates differ in `points` (same shape as the mesh's).
+    /// The (user) vertices whose coordinates differ in `points` (same shape as the mesh's),
+    /// ascending.
     pub fn moved_vertices(&self, points: &[f64]) -> Result<Vec<u32>> {
-        if points.len() != self.points.len() {
+        let (dim, current) = (self.layout.dim, &self.layout.points);
+        if points.len() != current.len() {
             return Err(Error::Shape {
                 what: format!(
-                    "the new points have {} coordinates, the mesh has {} ({} x {})",
+                    "the new points have {} coordinates, the mesh has {} ({} x {dim})",
                     points.len(),
-                    self.points.len(),
-                    self.points.len() / self.dim,
-                    self.dim
+                    current.len(),
+                    current.len() / dim,
                 ),
             });
         }
-        let dim = self.dim;
+        let rank = &self.layout.rank;
         with_threads::<S, _>(&self.opts, || {
-            Ok((0..self.points.len() / dim)
+            Ok((0..current.len() / dim)
                 .into_par_iter()
-                .filter(|&i| self.points[i * dim..(i + 1) * dim] != points[i * dim..(i + 1) * dim])
-                .map(|i| i as u32)
+                .filter(|&u| points[u * dim..][..dim] != current[rank[u] as usize * dim..][..dim])
+                .map(|u| u as u32)
                 .collect())
         })
     }
 
-    /// Moves the vertices `moved` (ascending, distinct) to `coords` (`dim` values each) and
-    /// refreshes every cached operator: only the elements around them are recomputed and
-    /// only the rows of those elements' corners re-summed (beyond an eighth of the
-    /// vertices, all of them, in parallel). Degeneracy is checked by the cached operators
-    /// (with none cached yet, by the next request). On error (an element became degenerate
-    /// under [`crate::Degenerate::Raise`], a non-finite coordinate, a bad vertex list,
-    /// cancellation) nothing changes.
+    /// Moves the (user) vertices `moved` (ascending, distinct) to `coords` (`dim` values
+    /// each) and refreshes every cached operator: only the elements around them are
+    /// recomputed and only the rows of those elements' corners re-summed (beyond an eighth
+    /// of the vertices, all of them, in parallel). Degeneracy is checked by the cached
+    /// operators (with none cached yet, by the next request). On error (an element became
+    /// degenerate under [`crate::Degenerate::Raise`], a non-finite coordinate, a bad vertex
+    /// list, cancellation) nothing changes.
     pub fn move_vertices(&mut self, moved: &[u32], coords: &[f64]) -> Result<Update> {
-        let (dim, n) = (self.dim, self.points.len() / self.dim);
+        let (dim, n) = (self.layout.dim, self.n_vertices());
         if coords.len() != moved.len() * dim {
             return Err(Error::Shape {
                 what: format!("{} coordinates for {} vertices of dimension {dim}", coords.len(), moved.len()),
@@ -252,24 +270,26 @@ impl<S: Simplex> CachedMesh<S> {
             return Err(Error::NonFiniteCoordinate { vertex, coordinate, value: coords[k] });
         }
         // Patch the coordinates in place, remembering the old ones to undo a failure.
+        let internal: Vec<u32> = moved.iter().map(|&u| self.layout.rank[u as usize]).collect();
         let span = |v: u32| v as usize * dim..(v as usize + 1) * dim;
-        let old: Vec<f64> = moved.iter().flat_map(|&v| &self.points[span(v)]).copied().collect();
+        let old: Vec<f64> = internal.iter().flat_map(|&v| &self.layout.points[span(v)]).copied().collect();
         let write = |points: &mut [f64], values: &[f64]| {
-            for (&v, c) in moved.iter().zip(values.chunks_exact(dim)) {
+            for (&v, c) in internal.iter().zip(values.chunks_exact(dim)) {
                 points[span(v)].copy_from_slice(c);
             }
         };
-        write(&mut self.points, coords);
-        let result = self.refresh(moved);
+        write(&mut self.layout.points, coords);
+        let result = self.refresh(&internal);
         if result.is_err() {
-            write(&mut self.points, &old);
+            write(&mut self.layout.points, &old);
         }
         result
     }
 
-    /// Recomputes the cached operators after `moved` changed (coordinates already in place).
+    /// Recomputes the cached operators after the internal vertices `moved` changed
+    /// (coordinates already in place).
     fn refresh(&mut self, moved: &[u32]) -> Result<Update> {
-        let n = self.points.len() / self.dim;
+        let n = self.n_vertices();
         if self.laplacians.is_empty() && self.masses.is_empty() {
             // nothing cached yet: the next request assembles from the new coordinates
             return Ok(Update { moved_vertices: moved.len(), ..Update::default() });
@@ -282,11 +302,11 @@ impl<S: Simplex> CachedMesh<S> {
             listed = moved.iter().flat_map(|&v| topo.corners.of(v as usize)).map(|&q| q / k as u32).collect();
             listed.sort_unstable();
             listed.dedup();
-            rows = listed.iter().flat_map(|&t| self.cells[t as usize].as_ref().to_vec()).collect();
+            rows = listed.iter().flat_map(|&t| self.layout.cells[t as usize].as_ref().to_vec()).collect();
             rows.sort_unstable();
             rows.dedup();
         }
-        let new = self.elements(&self.points);
+        let new = self.elements();
         let opts = &self.opts;
         let (laplacians, masses) = with_threads::<S, _>(opts, || {
             if full {
@@ -296,25 +316,27 @@ impl<S: Simplex> CachedMesh<S> {
             let m = recompute(&new, opts, &listed, &self.masses, |el, kind| el.corner_mass(kind))?;
             Ok((l, m))
         })?;
-        // Nothing failed: commit.
+        // Nothing failed: commit. (The sums below only poll the cancel flag of a full
+        // refresh; a cancelled commit would leave stale values, so it runs without one.)
         let (topo, all) = (&self.topology, (!full).then_some(&rows[..]));
         let only = (!full).then_some(&listed[..]);
-        with_threads::<S, _>(&self.opts, || {
+        let commit_opts = Options { cancel: None, ..self.opts.clone() };
+        with_threads::<S, _>(&commit_opts, || {
             for (cached, new) in self.laplacians.iter_mut().zip(laplacians) {
                 commit(&mut cached.per_element, only, new);
                 let values = std::mem::take(&mut cached.values);
-                cached.values = laplacian_values::<S>(topo, &cached.per_element, all, values);
+                cached.values = laplacian_values::<S>(topo, &cached.per_element, all, values, &commit_opts)?;
             }
             for (cached, new) in self.masses.iter_mut().zip(masses) {
                 commit(&mut cached.per_element, only, new);
                 let values = std::mem::take(&mut cached.values);
-                cached.values = mass_values::<S>(topo, cached.kind, &cached.per_element, all, values);
+                cached.values = mass_values::<S>(topo, cached.kind, &cached.per_element, all, values, &commit_opts)?;
             }
             Ok(())
         })?;
         Ok(Update {
             moved_vertices: moved.len(),
-            recomputed_elements: if full { self.cells.len() } else { listed.len() },
+            recomputed_elements: if full { self.layout.cells.len() } else { listed.len() },
             recomputed_rows: if full { n } else { rows.len() },
         })
     }
@@ -326,28 +348,29 @@ impl<S: Simplex> CachedMesh<S> {
         &self,
         elements: &Elements<S>,
     ) -> Result<(Vec<Vec<S::EdgeValues>>, Vec<Vec<S::CornerValues>>)> {
-        let m = self.cells.len();
+        let m = self.layout.cells.len();
         let mut l_new: Vec<Vec<S::EdgeValues>> = self.laplacians.iter().map(|_| vec![Default::default(); m]).collect();
         let mut m_new: Vec<Vec<S::CornerValues>> = self.masses.iter().map(|_| vec![Default::default(); m]).collect();
         let l_kinds: Vec<_> = self.laplacians.iter().map(|c| c.kind).collect();
         let m_kinds: Vec<_> = self.masses.iter().map(|c| c.kind).collect();
         let n_chunks = m.div_ceil(CHUNK);
         let chunks = chunk_lists(&mut l_new, n_chunks).into_par_iter().zip(chunk_lists(&mut m_new, n_chunks));
-        let fault = chunked(elements, &self.opts, chunks, |c, (mut ls, mut ms), scratch| {
-            let mut fault = None;
+        let fault = chunked(elements, &self.opts, chunks, |c, (mut ls, mut ms), scratch, faults| {
             for k in 0..CHUNK.min(m - c * CHUNK) {
                 let t = c * CHUNK + k;
                 let el = elements.get(t, scratch);
                 // a faulty element keeps the zeros of the fresh buffer (the Skip policy)
-                let mut store = |ok: bool| fault = fault.or((!ok).then_some(t));
+                let mut ok = true;
                 for (out, &kind) in ls.iter_mut().zip(&l_kinds) {
-                    store(el.weights(kind).map(|v| out[k] = v).is_ok());
+                    ok &= el.weights(kind).map(|v| out[k] = v).is_ok();
                 }
                 for (out, &kind) in ms.iter_mut().zip(&m_kinds) {
-                    store(el.corner_mass(kind).map(|v| out[k] = v).is_ok());
+                    ok &= el.corner_mass(kind).map(|v| out[k] = v).is_ok();
+                }
+                if !ok {
+                    faults.record(elements, t);
                 }
             }
-            fault
         })?;
         fault_to_error(elements, self.opts.degenerate, fault)?;
         Ok((l_new, m_new))

@@ -90,6 +90,8 @@ impl<S: Simplex> Element<S> {
 pub(crate) struct Elements<'a, S: Simplex> {
     mesh: Mesh<'a, S>,
     boundary: Option<Cow<'a, [bool]>>,
+    /// The user's index of every element of `mesh` (`None`: the same order).
+    element_of: Option<&'a [u32]>,
 }
 
 /// Which elements get the barycentric boundary fix, if the options ask for it.
@@ -98,13 +100,21 @@ pub(crate) fn boundary_mask<S: Simplex>(mesh: &Mesh<S>, opts: &Options) -> Optio
 }
 
 impl<'a, S: Simplex> Elements<'a, S> {
+    /// The elements of a mesh in the user's order.
     pub fn new(mesh: Mesh<'a, S>, opts: &Options) -> Self {
-        Elements { mesh, boundary: boundary_mask(&mesh, opts).map(Cow::Owned) }
+        Elements { mesh, boundary: boundary_mask(&mesh, opts).map(Cow::Owned), element_of: None }
     }
 
-    /// Elements with a boundary mask computed before (see [`boundary_mask`]).
-    pub fn with_mask(mesh: Mesh<'a, S>, boundary: Option<&'a [bool]>) -> Self {
-        Elements { mesh, boundary: boundary.map(Cow::Borrowed) }
+    /// The elements of an internal mesh whose element `t` is the user's `element_of[t]`,
+    /// with a boundary mask computed before (see [`boundary_mask`]).
+    pub fn internal(mesh: Mesh<'a, S>, element_of: &'a [u32], boundary: Option<Cow<'a, [bool]>>) -> Self {
+        Elements { mesh, boundary, element_of: Some(element_of) }
+    }
+
+    /// The user's index of element `t`.
+    #[inline]
+    pub fn user_index(&self, t: usize) -> usize {
+        self.element_of.map_or(t, |e| e[t] as usize)
     }
 
     pub fn scratch_len(&self) -> usize {
@@ -126,13 +136,15 @@ impl<'a, S: Simplex> Elements<'a, S> {
         Element { local, weights, fix_boundary, dual: OnceCell::new() }
     }
 
-    /// The error for element `t`, known to fail: zero measure or a non-finite value.
+    /// The error for element `t`, known to fail: zero measure or a non-finite value,
+    /// naming the user's index.
     pub fn fault_error(&self, t: usize) -> Error {
         let el = self.get(t, &mut vec![0.0; self.scratch_len()]);
+        let element = self.user_index(t);
         if S::is_degenerate(&el.local) {
-            Error::Degenerate { element: t }
+            Error::Degenerate { element }
         } else {
-            Error::NonFiniteResult { element: t }
+            Error::NonFiniteResult { element }
         }
     }
 }

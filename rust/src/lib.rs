@@ -48,26 +48,37 @@
 
 mod assemble;
 mod cached;
+mod check;
 mod csr;
+mod definite;
 mod element;
 mod error;
+mod faces;
 mod geometry;
+mod group;
+mod layout;
 pub mod local;
 mod mesh;
 mod operators;
 mod options;
 mod parallel;
 mod pass;
+mod quality;
 mod simplex;
 mod topology;
 
 pub use cached::{CachedMesh, Update};
+pub use check::{check_operator, OperatorCheck};
 pub use csr::{Coo, Csr, Mass};
+pub use definite::{negative_semidefinite, Semidefinite, MAX_GROUP};
 pub use error::{Error, Feature, Result};
 pub use geometry::{local_tet, local_tri, LocalTet, LocalTri};
 pub use mesh::{cells_from_i64, Mesh, TetMesh, TriMesh, MAX_VERTICES};
 pub use operators::{contributions, edge_weights, laplacian, mass, operators, triplets, upper_triangle};
 pub use options::{Boundary, Cancel, Degenerate, LaplacianKind, MassKind, Options};
 pub use parallel::max_threads;
+pub use quality::{inside_circumsphere, non_delaunay_faces, quality, tet_quality, TetQuality, DELAUNAY_RTOL};
 pub use simplex::{Simplex, Tet, Tri, Values};
-pub use topology::{boundary_elements, Incidence, Topology};
+pub use faces::{duplicate_elements, edges, faces, Faces};
+pub use group::Incidence;
+pub use topology::{boundary_elements, Topology};

@@ -3,22 +3,39 @@
 
 use crate::assemble::{assemble, with_threads};
 use crate::csr::{Coo, Csr, Mass};
-use crate::element::Elements;
+use crate::element::{boundary_mask, Elements};
 use crate::error::Result;
+use crate::layout::Layout;
 use crate::mesh::Mesh;
 use crate::options::{LaplacianKind, MassKind, Options};
 use crate::pass::{per_element, per_element_pair};
 use crate::simplex::Simplex;
 use crate::topology::Rows;
 use rayon::prelude::*;
+use std::borrow::Cow;
 
-/// Per-element pass and row layout of `mesh`, side by side.
-fn with_rows<'a, S: Simplex, T: Send>(
-    mesh: &Mesh<'a, S>,
-    pass: impl FnOnce() -> Result<T> + Send,
-) -> Result<(T, Rows<'a, S>)> {
-    let (values, rows) = rayon::join(pass, || Rows::new(mesh.cells(), mesh.n_vertices()));
-    Ok((values?, rows?))
+/// Per-element values of a one-shot pass: edge weights and/or corner masses.
+type Values<S> = (Option<Vec<<S as Simplex>::EdgeValues>>, Option<Vec<<S as Simplex>::CornerValues>>);
+
+/// One-shot assembly: the internal order of `mesh`, then the per-element pass (`pass`,
+/// over the internal elements) and the row layout side by side, then the scatter of the
+/// Laplacian (from the weights) and of the mass of `mass_kind` (from the corner masses).
+fn one_shot<S: Simplex>(
+    mesh: &Mesh<S>,
+    opts: &Options,
+    mass_kind: Option<MassKind>,
+    pass: impl FnOnce(&Elements<S>) -> Result<Values<S>> + Send,
+) -> Result<(Option<Csr>, Option<Mass>)> {
+    let layout = Layout::new(mesh, opts)?;
+    let internal = layout.mesh();
+    let boundary = boundary_mask(&internal, opts).map(Cow::Owned);
+    let elements = Elements::internal(internal, &layout.element_of, boundary);
+    let (values, rows) =
+        rayon::join(|| pass(&elements), || Rows::<S>::new(&layout, mesh.cells(), opts));
+    let ((w, m), rows) = (values?, rows?);
+    opts.cancelled()?;
+    let mass = mass_kind.zip(m.as_deref());
+    assemble(&layout, rows, w.as_deref(), mass, opts)
 }
 
 /// The `n x n` Laplacian: `L[i,j] = w_ij` on edges, `L[i,i] = -sum_j w_ij`; rows sum to
@@ -35,12 +52,13 @@ fn with_rows<'a, S: Simplex, T: Send>(
 pub fn laplacian<S: Simplex>(mesh: &Mesh<S>, kind: LaplacianKind, opts: &Options) -> Result<Csr> {
     let kind = kind.check()?;
     with_threads::<S, _>(opts, || {
-        let (w, rows) = with_rows(mesh, || {
+        let pass = |elements: &Elements<S>| {
             let mut w = vec![S::EdgeValues::default(); mesh.n_elements()];
-            per_element(&Elements::new(*mesh, opts), opts, &mut w, |el| el.weights(kind)).map(|_| w)
-        })?;
-        opts.cancelled()?;
-        Ok(assemble(rows, Some(&w), None).0.expect("a Laplacian was asked for"))
+            per_element(elements, opts, &mut w, |el| el.weights(kind))?;
+            Ok((Some(w), None))
+        };
+        let (l, _) = one_shot(mesh, opts, None, pass)?;
+        Ok(l.expect("a Laplacian was asked for"))
     })
 }
 
@@ -56,12 +74,13 @@ pub fn laplacian<S: Simplex>(mesh: &Mesh<S>, kind: LaplacianKind, opts: &Options
 /// ```
 pub fn mass<S: Simplex>(mesh: &Mesh<S>, kind: MassKind, opts: &Options) -> Result<Mass> {
     with_threads::<S, _>(opts, || {
-        let (m, rows) = with_rows(mesh, || {
+        let pass = |elements: &Elements<S>| {
             let mut m = vec![S::CornerValues::default(); mesh.n_elements()];
-            per_element(&Elements::new(*mesh, opts), opts, &mut m, |el| el.corner_mass(kind)).map(|_| m)
-        })?;
-        opts.cancelled()?;
-        Ok(assemble::<S>(rows, None, Some((kind, &m))).1.expect("a mass was asked for"))
+            per_element(elements, opts, &mut m, |el| el.corner_mass(kind))?;
+            Ok((None, Some(m)))
+        };
+        let (_, m) = one_shot(mesh, opts, Some(kind), pass)?;
+        Ok(m.expect("a mass was asked for"))
     })
 }
 
@@ -86,17 +105,14 @@ pub fn operators<S: Simplex>(
 ) -> Result<(Csr, Mass)> {
     let lap = lap.check()?;
     with_threads::<S, _>(opts, || {
-        let ((w, m), rows) = with_rows(mesh, || {
+        let pass = |elements: &Elements<S>| {
             let m_elements = mesh.n_elements();
             let mut w = vec![S::EdgeValues::default(); m_elements];
             let mut m = vec![S::CornerValues::default(); m_elements];
-            per_element_pair(&Elements::new(*mesh, opts), opts, &mut w, &mut m, |el| {
-                el.weights_and_mass(lap, mass)
-            })
-            .map(|_| (w, m))
-        })?;
-        opts.cancelled()?;
-        let (l, m) = assemble(rows, Some(&w), Some((mass, &m)));
+            per_element_pair(elements, opts, &mut w, &mut m, |el| el.weights_and_mass(lap, mass))?;
+            Ok((Some(w), Some(m)))
+        };
+        let (l, m) = one_shot(mesh, opts, Some(mass), pass)?;
         Ok((l.expect("a Laplacian was asked for"), m.expect("a mass was asked for")))
     })
 }
@@ -174,3 +190,4 @@ pub fn upper_triangle(l: &Csr) -> (Vec<[u32; 2]>, Vec<f64>) {
     }
     (edges, w)
 }
+

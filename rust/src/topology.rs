@@ -2,90 +2,112 @@
 //! around a vertex, where its contributions land in that vertex's row. It depends on the
 //! elements only, so it is computed once and reused for every operator and every new
 //! geometry.
+//!
+//! Rows are built in the internal order of [`crate::layout`] (the elements around a vertex
+//! are close in memory) and written to their place in the user's numbering: the columns
+//! of a row are sorted by the user's vertex index, as the output needs them.
 
 use crate::error::Result;
-use crate::mesh::max_elements;
+use crate::group::{group_by, groups_mut, Incidence};
+use crate::layout::Layout;
+use crate::options::Options;
 use crate::simplex::Simplex;
 use rayon::prelude::*;
 
-/// Items grouped by key: group `g` owns `items[offsets[g]..offsets[g+1]]`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Incidence {
-    /// Group starts, length `groups + 1`.
-    pub offsets: Vec<usize>,
-    /// The items, ascending within each group.
-    pub items: Vec<u32>,
+/// Rows per work item of the row passes (and per poll of the cancel flag).
+pub(crate) const ROW_CHUNK: usize = 512;
+
+/// The user-order rows of `data` (split at `indptr`) listed in internal order.
+pub(crate) fn rows_in_internal_order<'a, T>(
+    data: &'a mut [T],
+    indptr: &[usize],
+    vertex_of: &[u32],
+) -> Vec<&'a mut [T]> {
+    let mut by_user: Vec<Option<&mut [T]>> = groups_mut(data, indptr).into_iter().map(Some).collect();
+    vertex_of.iter().map(|&u| by_user[u as usize].take().expect("a permutation")).collect()
 }
 
-impl Incidence {
-    /// Items of group `g`.
-    #[inline]
-    pub fn of(&self, g: usize) -> &[u32] {
-        &self.items[self.offsets[g]..self.offsets[g + 1]]
-    }
+/// Runs `f(v, item)` for every internal row `v` and its item, in parallel chunks of
+/// [`ROW_CHUNK`] rows, polling the cancel flag between chunks.
+pub(crate) fn for_each_row<T: Send>(
+    items: &mut [T],
+    opts: &Options,
+    f: impl Fn(usize, &mut T) + Sync,
+) -> Result<()> {
+    items.par_chunks_mut(ROW_CHUNK).enumerate().try_for_each(|(c, chunk)| {
+        opts.cancelled()?;
+        for (k, item) in chunk.iter_mut().enumerate() {
+            f(c * ROW_CHUNK + k, item);
+        }
+        Ok(())
+    })
 }
 
 /// CSR pattern of a mesh and the slot map of its row-wise assembly.
 ///
 /// Row `i` of an operator is assembled from the elements around vertex `i`, in ascending
-/// element order: that order is the same for entry `(i, j)` and entry `(j, i)` and for
-/// every thread count, so the result is symmetric and deterministic to the last bit.
+/// user element index: that order is the same for entry `(i, j)` and entry `(j, i)`, for
+/// every thread count and whatever the internal order, so the result is symmetric and
+/// deterministic to the last bit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Topology {
-    /// Number of vertices.
-    pub n: usize,
-    /// Corners per element (`K`: 4 for tets, 3 for triangles).
-    pub corners_per_element: usize,
-    /// Element-corners `K t + c` around every vertex, ascending (empty for unreferenced
-    /// vertices).
-    pub corners: Incidence,
-    /// For the element-corner `corners.items[q]` = `K t + c` (in row `i`): the positions,
-    /// relative to the row start, of the other `K - 1` corners of `t` in ascending corner
-    /// order, at `corner_slots[(K - 1) q..(K - 1) (q + 1)]`.
-    pub corner_slots: Vec<u32>,
-    /// CSR row starts (length `n + 1`).
-    pub indptr: Vec<usize>,
-    /// CSR column indices, sorted within each row: the row's neighbours and itself.
-    pub indices: Vec<u32>,
-    /// Position of the diagonal within each row.
-    pub diagonal: Vec<u32>,
-}
-
-/// Splits `data` into consecutive groups of `offsets`, for parallel per-group writes.
-pub(crate) fn groups_mut<'a, T>(mut data: &'a mut [T], offsets: &[usize]) -> Vec<&'a mut [T]> {
-    let mut groups = Vec::with_capacity(offsets.len().saturating_sub(1));
-    for w in offsets.windows(2) {
-        let (group, rest) = data.split_at_mut(w[1] - w[0]);
-        groups.push(group);
-        data = rest;
-    }
-    groups
+    n: usize,
+    /// Element-corners `K t + c` (internal element ids) around every internal vertex, in
+    /// ascending user element index (empty for unreferenced vertices).
+    pub(crate) corners: Incidence,
+    /// For the element-corner `corners.items[q]` (in internal row `v`): the positions,
+    /// relative to the row start, of the other `K - 1` corners of its element (ascending
+    /// corner order), at `corner_slots[(K - 1) q..(K - 1) (q + 1)]`.
+    pub(crate) corner_slots: Vec<u32>,
+    /// Position of the diagonal within each internal row.
+    pub(crate) diagonal: Vec<u32>,
+    /// Internal vertex -> user vertex (row of the output).
+    pub(crate) vertex_of: Vec<u32>,
+    indptr: Vec<usize>,
+    indices: Vec<u32>,
 }
 
 impl Topology {
-    /// Builds the topology of `cells` over `n` vertices (indices must be `< n`, as
-    /// [`crate::Mesh`] guarantees).
-    pub fn new<S: Simplex>(cells: &[S::Cell], n: usize) -> Result<Self> {
-        let rows = Rows::<S>::new(cells, n)?;
-        let k = S::CORNERS - 1;
+    /// Builds the topology of a mesh (its user-order `cells`) in its internal order (see
+    /// [`crate::layout`]).
+    pub(crate) fn new<S: Simplex>(layout: &Layout<S>, cells: &[S::Cell], opts: &Options) -> Result<Self> {
+        let vertex_of = &layout.vertex_of[..];
+        let rows = Rows::<S>::new(layout, cells, opts)?;
+        let (n, k) = (vertex_of.len(), S::CORNERS - 1);
         let mut indices = vec![0u32; rows.nnz()];
         let mut corner_slots = vec![0u32; k * rows.corners.items.len()];
         let mut diagonal = vec![0u32; n];
         let slot_offsets: Vec<usize> = rows.corners.offsets.iter().map(|o| k * o).collect();
-        groups_mut(&mut indices, &rows.indptr)
-            .into_par_iter()
+        let mut items: Vec<_> = rows_in_internal_order(&mut indices, &rows.indptr, vertex_of)
+            .into_iter()
             .zip(groups_mut(&mut corner_slots, &slot_offsets))
-            .zip(diagonal.par_iter_mut())
-            .enumerate()
-            .for_each(|(i, ((cols, slots), diag))| {
-                rows.build(i, |row| {
-                    cols.copy_from_slice(row.cols);
-                    slots.copy_from_slice(row.slots);
-                    *diag = row.diagonal;
-                })
-            });
+            .zip(diagonal.iter_mut())
+            .collect();
+        for_each_row(&mut items, opts, |v, ((cols, slots), diag)| {
+            rows.build(v, |row| {
+                cols.copy_from_slice(row.cols);
+                slots.copy_from_slice(row.slots);
+                **diag = row.diagonal;
+            })
+        })?;
+        drop(items);
         let Rows { corners, indptr, .. } = rows;
-        Ok(Topology { n, corners_per_element: S::CORNERS, corners, corner_slots, indptr, indices, diagonal })
+        Ok(Topology { n, corners, corner_slots, diagonal, vertex_of: vertex_of.to_vec(), indptr, indices })
+    }
+
+    /// Number of vertices (rows and columns).
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// CSR row starts in the user's numbering (length `n + 1`).
+    pub fn indptr(&self) -> &[usize] {
+        &self.indptr
+    }
+
+    /// CSR column indices, sorted within each row: the row's neighbours and itself.
+    pub fn indices(&self) -> &[u32] {
+        &self.indices
     }
 
     /// Number of stored entries of the pattern.
@@ -112,7 +134,7 @@ impl Topology {
 
 /// One row of the pattern as built from the elements around its vertex.
 pub(crate) struct Row<'a> {
-    /// Sorted columns: the vertex and its neighbours.
+    /// Columns sorted by the user's vertex index: the vertex and its neighbours.
     pub cols: &'a [u32],
     /// For the q-th element-corner around the vertex, the positions in `cols` of the other
     /// `K - 1` corners of its element (ascending corner order): `slots[(K-1) q ..]`.
@@ -139,34 +161,43 @@ thread_local! {
 /// The rows of a mesh's pattern, built on demand from the elements around each vertex.
 pub(crate) struct Rows<'a, S: Simplex> {
     cells: &'a [S::Cell],
+    vertex_of: &'a [u32],
     pub corners: Incidence,
+    /// Row starts in the user's numbering.
     pub indptr: Vec<usize>,
 }
 
 impl<'a, S: Simplex> Rows<'a, S> {
     /// Counts every row (a first pass that deduplicates neighbours with the per-thread
-    /// position array) and lays out `indptr`.
-    pub fn new(cells: &'a [S::Cell], n: usize) -> Result<Self> {
-        debug_assert!(cells.len() <= max_elements::<S>(), "checked by Mesh::new");
-        let corners = corner_incidence::<S>(cells, n);
-        let mut rows = Rows { cells, corners, indptr: Vec::new() };
-        let lengths: Vec<usize> =
-            (0..n).into_par_iter().map(|i| rows.build_unsorted(i, |cols, _| cols.len())).collect();
+    /// position array) and lays out `indptr` in the user's order. `user_cells` are the
+    /// mesh's elements in the user's order and numbering.
+    pub fn new(layout: &'a Layout<S>, user_cells: &[S::Cell], opts: &Options) -> Result<Self> {
+        let (cells, vertex_of) = (&layout.cells[..], &layout.vertex_of[..]);
+        let n = vertex_of.len();
+        let corners = corner_incidence::<S>(user_cells, &layout.rank, &layout.internal_of, opts)?;
+        let mut rows = Rows { cells, vertex_of, corners, indptr: Vec::new() };
+        let mut lengths = vec![0usize; n];
+        for_each_row(&mut lengths, opts, |v, len| *len = rows.build_unsorted(v, |cols, _| cols.len()))?;
+        let mut by_user = vec![0usize; n];
+        for (&u, &len) in vertex_of.iter().zip(&lengths) {
+            by_user[u as usize] = len;
+        }
         let mut indptr = Vec::with_capacity(n + 1);
         indptr.push(0);
-        for len in lengths {
-            indptr.push(indptr.last().unwrap() + len);
+        for len in by_user {
+            indptr.push(indptr.last().expect("starts with 0") + len);
         }
         rows.indptr = indptr;
         Ok(rows)
     }
 
     pub fn nnz(&self) -> usize {
-        *self.indptr.last().unwrap()
+        *self.indptr.last().expect("n + 1 entries")
     }
 
-    /// Row `i` in order of first appearance: columns and the slots of every corner item.
-    fn build_unsorted<R>(&self, i: usize, f: impl FnOnce(&[u32], &[u32]) -> R) -> R {
+    /// Internal row `v` in order of first appearance: columns (internal ids) and the slots
+    /// of every corner item.
+    fn build_unsorted<R>(&self, v: usize, f: impl FnOnce(&[u32], &[u32]) -> R) -> R {
         SCRATCH.with(|scratch| {
             let s = &mut *scratch.borrow_mut();
             let n = self.corners.offsets.len() - 1;
@@ -175,39 +206,39 @@ impl<'a, S: Simplex> Rows<'a, S> {
             }
             s.cols.clear();
             s.slots.clear();
-            s.position[i] = 0;
-            s.cols.push(i as u32);
+            s.position[v] = 0;
+            s.cols.push(v as u32);
             let k = S::CORNERS;
-            for &item in self.corners.of(i) {
+            for &item in self.corners.of(v) {
                 let (cell, c) = (self.cells[item as usize / k].as_ref(), item as usize % k);
                 for o in (0..k).filter(|&o| o != c) {
-                    let v = cell[o] as usize;
-                    if s.position[v] == u32::MAX {
-                        s.position[v] = s.cols.len() as u32;
-                        s.cols.push(v as u32);
+                    let u = cell[o] as usize;
+                    if s.position[u] == u32::MAX {
+                        s.position[u] = s.cols.len() as u32;
+                        s.cols.push(u as u32);
                     }
-                    s.slots.push(s.position[v]);
+                    s.slots.push(s.position[u]);
                 }
             }
-            for &v in &s.cols {
-                s.position[v as usize] = u32::MAX;
+            for &u in &s.cols {
+                s.position[u as usize] = u32::MAX;
             }
             f(&s.cols, &s.slots)
         })
     }
 
-    /// Row `i` with sorted columns (see [`Row`]).
-    pub fn build<R>(&self, i: usize, f: impl FnOnce(Row) -> R) -> R {
-        self.build_unsorted(i, |_, _| ());
+    /// Internal row `v` with its columns as user indices, sorted (see [`Row`]).
+    pub fn build<R>(&self, v: usize, f: impl FnOnce(Row) -> R) -> R {
+        self.build_unsorted(v, |_, _| ());
         SCRATCH.with(|scratch| {
             let s = &mut *scratch.borrow_mut();
             s.order.clear();
-            s.order.extend(s.cols.iter().enumerate().map(|(k, &v)| (v, k as u32)));
+            s.order.extend(s.cols.iter().enumerate().map(|(k, &u)| (self.vertex_of[u as usize], k as u32)));
             s.order.sort_unstable();
             s.rank.resize(s.cols.len(), 0);
-            for (pos, &(v, first)) in s.order.iter().enumerate() {
+            for (pos, &(user, first)) in s.order.iter().enumerate() {
                 s.rank[first as usize] = pos as u32;
-                s.cols[pos] = v;
+                s.cols[pos] = user;
             }
             for slot in s.slots.iter_mut() {
                 *slot = s.rank[*slot as usize];
@@ -249,41 +280,23 @@ pub fn boundary_elements<S: Simplex>(cells: &[S::Cell]) -> Vec<bool> {
     boundary
 }
 
-/// Element-corners per vertex (ascending corner ids within each vertex), by a counting
-/// sort parallel over vertex ranges: every worker scans all corners and keeps its own range.
-fn corner_incidence<S: Simplex>(cells: &[S::Cell], n: usize) -> Incidence {
-    // every corner's vertex, in element-corner order `K t + c`
-    let corners = || cells.iter().flat_map(|c| c.as_ref().iter().copied());
-    let parts = (rayon::current_num_threads() * 2).clamp(1, n.max(1));
-    let bounds: Vec<usize> = (0..=parts).map(|p| p * n / parts).collect();
-    let mut counts = vec![0usize; n];
-    groups_mut(&mut counts, &bounds).into_par_iter().enumerate().for_each(|(p, counts)| {
-        let lo = bounds[p];
-        for v in corners() {
-            if let Some(c) = (v as usize).checked_sub(lo).and_then(|k| counts.get_mut(k)) {
-                *c += 1;
-            }
-        }
-    });
-    let mut offsets = Vec::with_capacity(n + 1);
-    offsets.push(0);
-    for c in counts {
-        offsets.push(offsets.last().unwrap() + c);
-    }
-    let mut items = vec![0u32; cells.len() * S::CORNERS];
-    let item_bounds: Vec<usize> = bounds.iter().map(|&b| offsets[b]).collect();
-    groups_mut(&mut items, &item_bounds).into_par_iter().enumerate().for_each(|(p, out)| {
-        let (lo, hi) = (bounds[p], bounds[p + 1]);
-        let mut cursor: Vec<usize> = (lo..hi).map(|i| offsets[i] - offsets[lo]).collect();
-        for (flat, v) in corners().enumerate() {
-            let v = v as usize;
-            if (lo..hi).contains(&v) {
-                out[cursor[v - lo]] = flat as u32;
-                cursor[v - lo] += 1;
-            }
-        }
-    });
-    Incidence { offsets, items }
+/// Element-corners `K t + c` (internal `t`) per internal vertex, in ascending user element
+/// index, from the user's `cells` (`rank[u]`: internal index of user vertex `u`;
+/// `internal_of[e]`: internal index of user element `e`).
+fn corner_incidence<S: Simplex>(
+    cells: &[S::Cell],
+    rank: &[u32],
+    internal_of: &[u32],
+    opts: &Options,
+) -> Result<Incidence> {
+    let k = S::CORNERS;
+    let corner = |r: usize| {
+        let (e, c) = (r / k, r % k);
+        let item = k as u32 * internal_of[e] + c as u32;
+        (rank[cells[e].as_ref()[c] as usize], item)
+    };
+    let (offsets, items) = group_by(rank.len(), k * cells.len(), corner, opts)?;
+    Ok(Incidence { offsets, items })
 }
 
 #[cfg(test)]
@@ -305,21 +318,35 @@ mod tests {
 
     #[test]
     fn two_tets_sharing_a_face() {
-        let t = Topology::new::<Tet>(&[[0, 1, 2, 3], [4, 3, 2, 1]], 6).unwrap();
+        // internal numbering = user numbering reversed, elements in user order
+        let vertex_of: Vec<u32> = (0..6).rev().collect();
+        let user_cells = [[0u32, 1, 2, 3], [4, 3, 2, 1]];
+        let cells: Vec<[u32; 4]> = user_cells.iter().map(|c| c.map(|u| 5 - u)).collect();
+        let layout = Layout::<Tet> {
+            rank: vertex_of.clone(),
+            vertex_of,
+            element_of: vec![0, 1],
+            internal_of: vec![0, 1],
+            cells,
+            points: vec![0.0; 18],
+            weights: None,
+            dim: 3,
+        };
+        let t = Topology::new::<Tet>(&layout, &user_cells, &Options::default()).unwrap();
         assert_eq!(t.edges().len(), 9);
-        assert_eq!(t.corners.of(5).len(), 0); // unreferenced
-        assert_eq!(t.indptr[6] - t.indptr[5], 1); // diagonal only
-        assert_eq!(&t.indices[t.indptr[1]..t.indptr[2]], &[0, 1, 2, 3, 4]);
+        let row = |i: usize| &t.indices()[t.indptr()[i]..t.indptr()[i + 1]];
+        assert_eq!(row(5), &[5]); // unreferenced: diagonal only
+        assert_eq!(row(1), &[0, 1, 2, 3, 4]);
         for i in 0..6 {
-            let row = &t.indices[t.indptr[i]..t.indptr[i + 1]];
-            assert!(row.windows(2).all(|w| w[0] < w[1]), "row {i} sorted: {row:?}");
-            assert_eq!(row[t.diagonal[i] as usize] as usize, i);
+            assert!(row(i).windows(2).all(|w| w[0] < w[1]), "row {i} sorted: {:?}", row(i));
+            let v = 5 - i; // internal row of user vertex i
+            assert_eq!(row(i)[t.diagonal[v] as usize] as usize, i);
         }
-        // vertex 2 is corner 2 of tet 1 = [4, 3, 2, 1]: the others are 4, 3, 1
-        let k = t.corners.of(2).iter().position(|&k| k == 4 + 2).unwrap();
-        let q = t.corners.offsets[2] + k;
+        // user vertex 2 (internal 3) is corner 2 of the second tet: the others are 4, 3, 1
+        let v = 3;
+        let q = t.corners.of(v).iter().position(|&item| item == 4 + 2).unwrap();
+        let q = t.corners.offsets[v] + q;
         let slots = &t.corner_slots[3 * q..3 * q + 3];
-        let row = &t.indices[t.indptr[2]..t.indptr[3]];
-        assert_eq!(slots.iter().map(|&s| row[s as usize]).collect::<Vec<_>>(), [4, 3, 1]);
+        assert_eq!(slots.iter().map(|&s| row(2)[s as usize]).collect::<Vec<_>>(), [4, 3, 1]);
     }
 }

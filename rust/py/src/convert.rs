@@ -28,8 +28,41 @@ pub trait Job: Send {
     fn run<S: Simplex>(self, mesh: &Mesh<S>, opts: &Options) -> tetlap::Result<Self::Output>;
 }
 
+/// Something to compute on the elements alone (no coordinates), of any kind.
+pub trait CellsJob: Send {
+    type Output: Send;
+    fn run<S: Simplex>(self, cells: &[S::Cell], n: usize, opts: &Options) -> tetlap::Result<Self::Output>;
+}
+
+/// Validated elements over `n` vertices, without coordinates.
+pub struct CellsInput {
+    pub cells: Cells,
+    pub n: usize,
+}
+
+impl CellsInput {
+    /// Copies `cells` (m, 4) or (m, 3) int64, every index checked against `n`.
+    pub fn new(py: Python<'_>, cells: &PyReadonlyArray2<'_, i64>, n: usize) -> PyResult<Self> {
+        let flat = contiguous(py, cells)?;
+        let cells = match cells.shape()[1] {
+            4 => Cells::Tets(tetlap::cells_from_i64::<Tet>(flat, n).map_err(|e| to_py(py, e))?),
+            3 => Cells::Tris(tetlap::cells_from_i64::<Tri>(flat, n).map_err(|e| to_py(py, e))?),
+            k => return Err(shape_error(py, format!("elements must have 3 or 4 columns, got {k}"))),
+        };
+        Ok(CellsInput { cells, n })
+    }
+
+    /// Runs `job` on the elements, whatever their kind.
+    pub fn run<J: CellsJob>(&self, job: J, opts: &Options) -> tetlap::Result<J::Output> {
+        match &self.cells {
+            Cells::Tets(c) => job.run::<Tet>(c, self.n, opts),
+            Cells::Tris(c) => job.run::<Tri>(c, self.n, opts),
+        }
+    }
+}
+
 /// The data of a C-contiguous array (the Python layer guarantees it).
-fn contiguous<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
+pub fn contiguous<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
     py: Python<'_>,
     a: &'a numpy::PyReadonlyArray<'_, T, D>,
 ) -> PyResult<&'a [T]> {
@@ -65,6 +98,14 @@ impl Input {
         match &self.weights {
             Some(w) => mesh.with_weights(w),
             None => Ok(mesh),
+        }
+    }
+
+    /// The validated tet mesh, or the error for a triangle mesh (what only tets support).
+    pub fn tets(&self) -> tetlap::Result<Mesh<'_, Tet>> {
+        match &self.cells {
+            Cells::Tets(c) => self.mesh::<Tet>(c),
+            Cells::Tris(_) => Err(tetlap::Error::Shape { what: "this needs a tet mesh, (m, 4) elements".into() }),
         }
     }
 
@@ -166,7 +207,7 @@ pub fn indptr_array<'py>(py: Python<'py>, indptr: &[usize]) -> Bound<'py, PyAny>
 
 /// `(data float64, indices uint32, indptr int32|int64)`, data and indices moved without a
 /// copy (the Python side views the uint32 indices, all `< 2^31`, as int32).
-fn csr_arrays(py: Python<'_>, m: Csr) -> PyResult<Bound<'_, PyTuple>> {
+pub fn csr_arrays(py: Python<'_>, m: Csr) -> PyResult<Bound<'_, PyTuple>> {
     let indptr = indptr_array(py, &m.indptr);
     PyTuple::new(py, [PyArray1::from_vec(py, m.data).into_any(), PyArray1::from_vec(py, m.indices).into_any(), indptr])
 }

@@ -7,6 +7,7 @@
 //! conversions and SciPy wrapping, is the Python package `tetlap`.
 
 mod convert;
+mod diagnostics;
 mod errors;
 mod mesh;
 mod options;
@@ -25,6 +26,9 @@ mod _core {
     #[pymodule_export]
     use crate::mesh::PyMesh;
 
+    #[pymodule_export]
+    use crate::diagnostics::{check_operator, duplicates, edges, faces, negative_semidefinite, non_delaunay, quality};
+
     type Points<'py> = PyReadonlyArray2<'py, f64>;
     type Cells<'py> = PyReadonlyArray2<'py, i64>;
     type Weights<'py> = Option<PyReadonlyArray1<'py, f64>>;
@@ -32,7 +36,9 @@ mod _core {
     #[pymodule_init]
     fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
         crate::errors::init(m.py())?;
-        m.add("MAX_THREADS", tetlap::max_threads())
+        m.add("MAX_THREADS", tetlap::max_threads())?;
+        m.add("DELAUNAY_RTOL", tetlap::DELAUNAY_RTOL)?;
+        m.add("MAX_GROUP", tetlap::MAX_GROUP)
     }
 
     /// The core options of one call, with a fresh cancel flag.

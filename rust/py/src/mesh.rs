@@ -102,8 +102,7 @@ impl PyMesh {
     /// `(indices uint32, indptr int32|int64)` of the CSR pattern.
     fn pattern<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let (indices, indptr) = py.detach(|| {
-            let topo = with_mesh!(&*self.read(), m => m.topology().clone());
-            (topo.indices, topo.indptr)
+            with_mesh!(&*self.read(), m => (m.topology().indices().to_vec(), m.topology().indptr().to_vec()))
         });
         PyTuple::new(py, [PyArray1::from_vec(py, indices).into_any(), indptr_array(py, &indptr)])
     }
@@ -152,7 +151,7 @@ impl PyMesh {
 
     /// The current coordinates (a copy), `(n, d)`.
     fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let points = py.detach(|| with_mesh!(&*self.read(), m => m.points().to_vec()));
+        let points = py.detach(|| with_mesh!(&*self.read(), m => m.points()));
         let n = points.len() / self.dim;
         PyArray1::from_vec(py, points).reshape([n, self.dim])
     }
