@@ -15,7 +15,8 @@ Sign convention (paper Eq. 1): ``L[i, j] = w_ij`` on edges, ``L[i, i] = -sum_j w
 ((64, 64), 1.0)
 """
 
-from . import diagnostics, meshes, solve
+from . import diagnostics, info, io, meshes, solve
+from ._core import MAX_THREADS
 from .mesh import Mesh, UpdateInfo
 from .properties import Report, check
 from .errors import (
@@ -58,6 +59,9 @@ __all__ = [
     "meshes",
     "diagnostics",
     "solve",
+    "io",
+    "info",
+    "MAX_THREADS",
     "TetlapError",
     "ShapeError",
     "DtypeError",

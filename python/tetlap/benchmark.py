@@ -1,16 +1,22 @@
-"""``tetlap bench``: tetlap against the floor and the baselines installed, side by side.
+"""``tetlap bench``: tetlap against the floor and the baselines installed, side by side, on
+the kinds of mesh users bring.
 
-Every case is timed in the same process, interleaved (one repetition of every
-implementation, then the next repetition), and reported as the median with its ratio to
-the floor (gathering ``V[T]`` once and writing the three CSR arrays of the result: the
-memory traffic any assembler must do) and to each baseline that is installed:
-``igl.cotmatrix`` / ``igl.massmatrix`` (pip ``libigl``), scikit-fem's P1 ``laplace`` form,
-and a plain vectorised NumPy primal (below, SciPy's COO -> CSR included).
+Every case is timed in the same process, interleaved (one repetition of every case, then
+the next repetition), and reported as the median with its ratio to the floor (gathering
+``V[T]`` in the mesh's own order and writing the three CSR arrays of the result: the
+memory traffic any assembler must do) and to ``igl.cotmatrix`` (pip ``libigl``) when it is
+installed.
+
+Mesh kinds: ``kuhn`` (a jittered Kuhn grid of the unit cube, near-perfect memory order),
+``delaunay`` (``scipy.spatial.Delaunay`` of uniform random points, in qhull's own order),
+``shuffled`` (that mesh with its vertices and tets randomly renumbered) and any mesh file
+(``--mesh FILE``).
 """
 
 from __future__ import annotations
 
 import json
+import pathlib
 import statistics
 import sys
 import time
@@ -20,10 +26,50 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import assembly, meshes
+from ._progress import bar
+from .info import report
 from .mesh import Mesh
+from .properties import check
 
 # Kuhn grids: 6 k^3 tets.
 SIZES = {"10k": 12, "100k": 26, "1M": 55, "4M": 87}
+#: Tets per point of the Delaunay tetrahedralisation of uniform points in a cube.
+TETS_PER_POINT = 6.73
+KINDS = ("kuhn", "delaunay", "shuffled")
+#: Cases that run unless ``--operators`` asks for others.
+DEFAULT_CASES = ("floor", "tetlap primal", "tetlap dual", "tetlap L+M primal+barycentric",
+                 "tetlap L+M dual+circumcentric", "Mesh: update all + L+M dual",
+                 "Mesh: update 20 vertices", "igl.cotmatrix", "igl.massmatrix barycentric")
+
+
+def delaunay(n_tets: int, seed: int = 0):
+    """``scipy.spatial.Delaunay`` of ``n_tets / 6.73`` uniform points in the unit cube, in
+    qhull's order (flat hull slivers removed)."""
+    from scipy.spatial import Delaunay
+
+    points = np.random.default_rng(seed).uniform(size=(round(n_tets / TETS_PER_POINT), 3))
+    T = Delaunay(points).simplices.astype(np.int64)
+    e = points[T[:, 1:]] - points[T[:, :1]]
+    volume = np.abs(np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2])))
+    return points, T[volume > 1e-12 * volume.mean()]
+
+
+def shuffled(V, T, seed: int = 1):
+    """The mesh with its vertices and its tets in random order."""
+    rng = np.random.default_rng(seed)
+    perm = rng.permutation(len(V))
+    inverse = np.empty_like(perm)
+    inverse[perm] = np.arange(len(V))
+    return V[perm], inverse[T][rng.permutation(len(T))]
+
+
+def mesh(kind: str, size: str):
+    """The benchmark mesh of ``kind`` (``kuhn``, ``delaunay``, ``shuffled``) and ``size``."""
+    if kind == "kuhn":
+        return meshes.cube(SIZES[size], jitter=0.2, seed=0)
+    n_tets = 6 * SIZES[size] ** 3
+    V, T = delaunay(n_tets)
+    return shuffled(V, T) if kind == "shuffled" else (V, T)
 
 
 def numpy_primal(V, T):
@@ -41,7 +87,8 @@ def numpy_primal(V, T):
 
 
 def floor(V, T, nnz):
-    """Gather V[T] once and write CSR arrays of nnz entries: the memory traffic floor."""
+    """Gather ``V[T]`` once and write CSR arrays of ``nnz`` entries: the memory traffic
+    floor of an assembly."""
     X = V[T]
     data = np.empty(nnz)
     data[:] = X[0, 0, 0]
@@ -51,114 +98,129 @@ def floor(V, T, nnz):
     return X, data, indices, indptr
 
 
-def _cases(V, T, threads, quick) -> dict[str, Callable[[], object]]:
-    nnz = assembly.laplacian(V, T).nnz
+def _cases(V, T, threads) -> dict[str, Callable[[], object]]:
+    nnz = assembly.laplacian(V, T, degenerate="skip").nnz
+    opts = {"threads": threads, "degenerate": "skip"}
     cases: dict[str, Callable[[], object]] = {
         "floor": lambda: floor(V, T, nnz),
-        "tetlap primal": lambda: assembly.laplacian(V, T, "primal", threads=threads),
-        "tetlap dual": lambda: assembly.laplacian(V, T, "dual", threads=threads),
+        "tetlap primal": lambda: assembly.laplacian(V, T, "primal", **opts),
+        "tetlap dual": lambda: assembly.laplacian(V, T, "dual", **opts),
         "tetlap L+M primal+barycentric": lambda: assembly.operators(
-            V, T, "primal", "barycentric", threads=threads),
+            V, T, "primal", "barycentric", **opts),
         "tetlap L+M dual+circumcentric": lambda: assembly.operators(
-            V, T, "dual", "circumcentric", threads=threads),
+            V, T, "dual", "circumcentric", **opts),
     }
     # Two cached meshes, each toggling between two geometries: every vertex moves, or 20.
     rng = np.random.default_rng(0)
     few = V.copy()
-    few[rng.choice(len(V), 20, replace=False)] += 1e-4
-    toggles = {"all": (Mesh(V, T, threads=threads), [V * (1 + 1e-6), V * (1 + 2e-6)]),
-               "few": (Mesh(V, T, threads=threads), [few, V])}
-    for mesh, _ in toggles.values():
-        mesh.operators("dual", "circumcentric")
+    few[rng.choice(len(V), 20, replace=False)] *= 1 + 1e-9
+    toggles = {"all": (Mesh(V, T, **opts), [V * (1 + 1e-6), V * (1 + 2e-6)]),
+               "few": (Mesh(V, T, **opts), [few, V])}
+    for cached, _ in toggles.values():
+        cached.operators("dual", "circumcentric")
     state = {"all": 0, "few": 0}
 
     def toggle(which):
-        mesh, geometries = toggles[which]
+        cached, geometries = toggles[which]
         state[which] ^= 1
-        return mesh, mesh.update(geometries[state[which]])
+        return cached, cached.update(geometries[state[which]])
 
-    def all_moved():
-        mesh, _ = toggle("all")
-        return mesh.operators("dual", "circumcentric")
-
-    def twenty_moved():
-        return toggle("few")
-
-    cases["Mesh: update all + L+M dual"] = all_moved
-    cases["Mesh: update 20 vertices"] = twenty_moved
-    if not quick:
-        cases["numpy primal"] = lambda: numpy_primal(V, T)
+    cases["Mesh: update all + L+M dual"] = lambda: toggle("all")[0].operators("dual", "circumcentric")
+    cases["Mesh: update 20 vertices"] = lambda: toggle("few")
+    cases["numpy primal"] = lambda: numpy_primal(V, T)
+    L = assembly.laplacian(V, T, "dual", **opts)
+    cases["tetlap.check dual"] = lambda: check(L, V, T, kind="dual")
+    cases["tetlap info (report)"] = lambda: report(V, T, progress=False)
     try:
         import igl
 
         cases["igl.cotmatrix"] = lambda: igl.cotmatrix(V, T)
         cases["igl.massmatrix barycentric"] = lambda: igl.massmatrix(
             V, T, igl.MASSMATRIX_TYPE_BARYCENTRIC)
-        if not quick:
-            cases["igl.massmatrix voronoi"] = lambda: igl.massmatrix(
-                V, T, igl.MASSMATRIX_TYPE_VORONOI)
+        cases["igl.massmatrix voronoi"] = lambda: igl.massmatrix(
+            V, T, igl.MASSMATRIX_TYPE_VORONOI)
     except ImportError:
         pass
-    if not quick:
-        try:
-            import skfem
-            from skfem.models.poisson import laplace
+    try:
+        import skfem
+        from skfem.models.poisson import laplace
 
-            tets = meshes.orient(V, T)
-            basis = skfem.Basis(skfem.MeshTet(V.T.copy(), tets.T.copy()), skfem.ElementTetP1())
-            cases["scikit-fem P1 stiffness"] = lambda: skfem.asm(laplace, basis)
-        except ImportError:
-            pass
+        tets = meshes.orient(V, T)
+        basis = skfem.Basis(skfem.MeshTet(V.T.copy(), tets.T.copy()), skfem.ElementTetP1())
+        cases["scikit-fem P1 stiffness"] = lambda: skfem.asm(laplace, basis)
+    except ImportError:
+        pass
     return cases
 
 
-def run(sizes=("100k",), threads=None, repeat=5, quick=False, progress=True,
-        only=None) -> list[dict]:
-    """Time every case (or those whose name contains a word of ``only``; the floor and
-    ``igl.cotmatrix`` always run, for the ratios) on every size; one record per
-    (size, case)."""
+def _selected(names, only) -> list[str]:
+    if not only:
+        return [n for n in names if n in DEFAULT_CASES]
+    keep = ("floor", "igl.cotmatrix")
+    return [n for n in names if n in keep or any(word in n for word in only)]
+
+
+def time_mesh(label: str, V, T, threads=None, repeat: int = 5, only=None,
+              progress: bool = True) -> list[dict]:
+    """Time the cases on one mesh; one record per case."""
+    cases = _cases(V, T, threads)
+    names = _selected(list(cases), only)
+    times: dict[str, list[float]] = {name: [] for name in names}
+    rounds = bar(range(repeat), desc=f"{label}") if progress else range(repeat)
+    for _ in rounds:
+        for name in names:
+            start = time.perf_counter()
+            cases[name]()
+            times[name].append(time.perf_counter() - start)
+    medians = {name: statistics.median(t) for name, t in times.items()}
+    return [{
+        "mesh": label, "n_tets": int(len(T)), "n_vertices": int(len(V)), "case": name,
+        "threads": threads, "median_s": t, "mtets_per_s": len(T) / t / 1e6,
+        "vs_floor": t / medians["floor"],
+        "igl_cotmatrix_over_this": medians.get("igl.cotmatrix", float("nan")) / t,
+    } for name, t in medians.items()]
+
+
+def run(kinds=KINDS, sizes=("100k",), files=(), threads=None, repeat=5, only=None,
+        progress=True) -> list[dict]:
+    """Time every selected case on every (kind, size) mesh and every file."""
+    from . import io
+
     records = []
     for size in sizes:
-        V, T = meshes.cube(SIZES[size], jitter=0.2, seed=0)
-        cases = _cases(V, T, threads, quick)
-        if only:
-            keep = ("floor", "igl.cotmatrix")
-            cases = {k: f for k, f in cases.items()
-                     if k in keep or any(word in k for word in only)}
-        times: dict[str, list[float]] = {name: [] for name in cases}
-        for r in range(repeat):
-            if progress:
-                print(f"\r{size}: repetition {r + 1}/{repeat}", end="", file=sys.stderr, flush=True)
-            for name, f in cases.items():
-                start = time.perf_counter()
-                f()
-                times[name].append(time.perf_counter() - start)
-        if progress:
-            print(file=sys.stderr)
-        medians = {name: statistics.median(t) for name, t in times.items()}
-        for name, t in medians.items():
-            records.append({
-                "size": size, "n_tets": int(len(T)), "n_vertices": int(len(V)), "case": name,
-                "threads": threads, "median_s": t, "mtets_per_s": len(T) / t / 1e6,
-                "vs_floor": t / medians["floor"],
-                "igl_cotmatrix_over_this": medians.get("igl.cotmatrix", float("nan")) / t,
-            })
+        for kind in kinds:
+            V, T = mesh(kind, size)
+            records += time_mesh(f"{kind} {size}", V, T, threads, repeat, only, progress)
+    for path in files:
+        V, T = io.read(path)
+        records += time_mesh(pathlib.Path(path).name, V, T, threads, repeat, only, progress)
     return records
 
 
 def table(records) -> str:
-    lines = [f"{'size':>5} {'case':<32} {'median':>10} {'Mtets/s':>8} {'x floor':>8} "
-             f"{'igl.cot / this':>14}"]
+    """The records as an aligned text table."""
+    width = max([len(r["mesh"]) for r in records] + [4])
+    lines = [f"{'mesh':<{width}} {'tets':>9} {'case':<32} {'median':>10} {'Mtets/s':>8} "
+             f"{'x floor':>8} {'igl.cot / this':>14}"]
     for r in records:
-        lines.append(f"{r['size']:>5} {r['case']:<32} {1e3 * r['median_s']:>8.2f}ms "
-                     f"{r['mtets_per_s']:>8.2f} {r['vs_floor']:>8.2f} "
-                     f"{r['igl_cotmatrix_over_this']:>14.2f}")
+        lines.append(f"{r['mesh']:<{width}} {r['n_tets']:>9} {r['case']:<32} "
+                     f"{1e3 * r['median_s']:>8.2f}ms {r['mtets_per_s']:>8.2f} "
+                     f"{r['vs_floor']:>8.2f} {r['igl_cotmatrix_over_this']:>14.2f}")
     return "\n".join(lines)
 
 
 def main(args) -> int:
-    sizes = args.sizes or (["10k", "100k"] if args.quick else ["10k", "100k", "1M"])
-    records = run(sizes, threads=args.threads, repeat=args.repeat or (3 if args.quick else 7),
-                  quick=args.quick, only=args.operators)
+    """``tetlap bench`` (arguments parsed by :mod:`tetlap.cli`)."""
+    sizes = args.sizes or (["10k", "100k"] if args.quick else ["100k", "1M"])
+    kinds = args.kinds or (["kuhn", "delaunay"] if args.quick else list(KINDS))
+    if args.mesh and not args.kinds:
+        kinds = []
+    records = run(kinds, sizes, args.mesh or (), threads=args.threads,
+                  repeat=args.repeat or (3 if args.quick else 5), only=args.operators,
+                  progress=not args.json)
     print(json.dumps(records, indent=1) if args.json else table(records))
     return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit("run it as: tetlap bench")

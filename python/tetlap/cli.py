@@ -1,245 +1,256 @@
-"""The ``tetlap`` command (also ``python -m tetlap``).
+"""The ``tetlap`` command (also ``python -m tetlap``): it parses arguments and prints; the
+work is done by :mod:`tetlap.info`, :mod:`tetlap.assembly`, :mod:`tetlap.benchmark` and
+:mod:`tetlap.experiments`.
 
-    tetlap info [MESH] [--json]    properties of both Laplacians on a mesh file
-                                   (a built-in random Delaunay ball when MESH is omitted)
-    tetlap assemble MESH -o L.npz  save L (and M to L.mass.npz) for scipy.sparse.load_npz
-    tetlap bench [--sizes ...] [--operators ...]  timings against the floor and baselines
-    tetlap experiment NAME         the paper's experiments (CSV + PNG + summary)
-    tetlap distributed-info P T    (under mpirun) global checks with PETSc, from .npy files
+    tetlap info [MESH] [--json]      the mesh and the Table 1 properties of both Laplacians
+    tetlap assemble MESH -o L.npz    L and M as scipy .npz files
+    tetlap bench                     timings against the floor and the baselines
+    tetlap experiment NAME           the paper's experiments (CSV + PNG + summary)
+    tetlap distributed-info P T      (under mpirun) global checks with PETSc, from .npy files
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
 import sys
 
-import numpy as np
+from . import __version__
+from .errors import TetlapError
 
-from . import assembly, diagnostics, meshes
-from .properties import check
-
-_KINDS = ("primal", "dual")
+#: The built-in mesh of ``tetlap info`` without a file.
+BUILT_IN = "a random Delaunay ball, tetlap.meshes.ball(2000, seed=0)"
 
 
 def _load(path: str | None):
+    """``(V, T, description)`` of a mesh file, or of the built-in ball; nothing that the
+    readers print reaches stdout."""
+    from . import meshes
+
     if path is None:
-        V, T = meshes.ball(2000, seed=0)
-        return V, T, "built-in random Delaunay ball (n=2000, seed=0)"
+        return (*meshes.ball(2000, seed=0), BUILT_IN)
     from . import io
 
-    V, T = io.read(path)
+    with contextlib.redirect_stdout(sys.stderr):
+        V, T = io.read(path)
     return V, T, path
 
 
-def info(V, T, *, nsd: bool = True) -> dict:
-    """Counts, boundary, mesh quality and the Table-1 checks of both Laplacians and both
-    lumped masses, as one JSON-ready dict."""
-    n = V.shape[0]
-    boundary = diagnostics.boundary_vertices(T, n)
-    orientation = diagnostics.orientation(V, T) if V.shape[1] == 3 else None
-    result = {
-        "n_vertices": int(n),
-        "n_tets": int(T.shape[0]),
-        "n_boundary_vertices": int(boundary.sum()),
-        "n_boundary_faces": int(len(diagnostics.boundary_faces(T))),
-        "n_unreferenced_vertices": int((~diagnostics.referenced_vertices(T, n)).sum()),
-        "n_positive_tets": None if orientation is None else int((orientation > 0).sum()),
-        "n_negative_tets": None if orientation is None else int((orientation < 0).sum()),
-        "n_degenerate_tets": int(diagnostics.degenerate_tets(V, T).sum()),
-        "n_duplicate_tets": int(diagnostics.duplicate_tets(T).sum()),
-        "n_nonmanifold_faces": int(len(diagnostics.nonmanifold_faces(T))),
-    }
-    if V.shape[1] == 3:
-        flags = diagnostics.non_delaunay_faces(V, T)
-        dihedral = diagnostics.dihedral_angles(V, T)
-        result.update({
-            "n_interior_faces": int(len(flags)),
-            "non_delaunay_face_fraction": float(flags.mean()) if len(flags) else 0.0,
-            "non_delaunay_tet_fraction": float(diagnostics.non_delaunay_tets(V, T).mean()),
-            "min_dihedral_deg": float(np.nanmin(dihedral)),
-            "max_dihedral_deg": float(np.nanmax(dihedral)),
-            "well_centered_tet_fraction": float(diagnostics.well_centered(V, T).mean()),
-        })
-    else:
-        result.update({"n_interior_faces": None, "non_delaunay_face_fraction": None,
-                       "non_delaunay_tet_fraction": None, "min_dihedral_deg": None,
-                       "max_dihedral_deg": None, "well_centered_tet_fraction": None})
-    for kind in _KINDS:
-        L = assembly.laplacian(V, T, kind)
-        r = check(L, V, T, nsd=nsd)
-        result[kind] = {
-            "symmetric": r.symmetric,
-            "max_row_sum": r.max_row_sum,
-            "linear_precision_residual": r.linear_precision_residual,
-            "nsd": r.nsd,
-            "nsd_method": r.nsd_method,
-            "min_weight": r.min_weight,
-            "negative_weight_fraction": r.negative_fraction,
-            "negative_weight_fraction_interior": r.negative_fraction_interior,
-            "finite": r.finite,
-        }
-    masses = {}
-    for kind in ("barycentric", "circumcentric"):
-        m = assembly.mass(V, T, kind).diagonal()
-        masses[kind] = {"total": float(m.sum()), "min": float(m.min())}
-    masses["mesh_volume"] = float(np.abs(diagnostics.signed_volumes(V, T)).sum())
-    result["mass"] = masses
-    return result
-
-
-def _fmt(v) -> str:
-    if v is None:
+def _cell(value) -> str:
+    if value is None:
         return "n/a"
-    if isinstance(v, bool):
-        return "yes" if v else "NO"
-    if isinstance(v, float):
-        return f"{v:.3e}"
-    return str(v)
+    if isinstance(value, bool):
+        return "yes" if value else "NO"
+    if isinstance(value, float):
+        return f"{value:.3e}"
+    return str(value)
+
+
+def _share(count: int, total: int) -> str:
+    return f"{count}/{total} ({100 * count / total:.2f}%)" if total else "0/0"
 
 
 def _print_info(result: dict, source: str) -> None:
+    m = result["mesh"]
     print(f"mesh: {source}")
-    print(f"{result['n_vertices']} vertices ({result['n_boundary_vertices']} on the boundary, "
-          f"{result['n_unreferenced_vertices']} unreferenced), {result['n_tets']} tets "
-          f"({result['n_positive_tets']} positive, {result['n_negative_tets']} negative, "
-          f"{result['n_degenerate_tets']} degenerate, {result['n_duplicate_tets']} duplicate; "
-          f"{result['n_nonmanifold_faces']} non-manifold faces)")
-    if result["non_delaunay_face_fraction"] is not None:
-        print(f"non-Delaunay interior faces: {100 * result['non_delaunay_face_fraction']:.2f}% "
-              f"of {result['n_interior_faces']} (tets: "
-              f"{100 * result['non_delaunay_tet_fraction']:.2f}%); dihedral angles "
-              f"{result['min_dihedral_deg']:.2f}..{result['max_dihedral_deg']:.2f} deg; "
-              f"well-centered tets: {100 * result['well_centered_tet_fraction']:.2f}%")
+    print(f"{m['n_vertices']} vertices ({m['n_boundary_vertices']} on the boundary, "
+          f"{m['n_unreferenced_vertices']} unreferenced), {m['n_tets']} tets "
+          f"({_cell(m['n_positive_tets'])} positive, {_cell(m['n_negative_tets'])} negative, "
+          f"{m['n_degenerate_tets']} degenerate, {m['n_duplicate_tets']} duplicate)")
+    faces = (f"faces: {m['n_boundary_faces']} on the boundary, {m['n_interior_faces']} interior, "
+             f"{m['n_nonmanifold_faces']} non-manifold")
+    if m["non_delaunay_face_fraction"] is not None:
+        faces += (f"; non-Delaunay: {_share(m['n_non_delaunay_faces'], m['n_interior_faces'])} "
+                  f"of the interior faces, {100 * m['non_delaunay_tet_fraction']:.2f}% of the tets")
+    print(faces)
+    angles = ("n/a" if m["min_dihedral_deg"] is None else
+              f"{m['min_dihedral_deg']:.2f} .. {m['max_dihedral_deg']:.2f} deg")
+    print(f"dihedral angles {angles}; "
+          f"well-centered tets {100 * m['well_centered_tet_fraction']:.2f}%; "
+          f"volume {m['mesh_volume']:.10g}")
+    p, d = result["primal"], result["dual"]
     rows = [
-        ("finite", "finite"),
-        ("symmetric", "symmetric"),
-        ("max |row sum|", "max_row_sum"),
-        ("linear precision residual", "linear_precision_residual"),
-        ("negative semidefinite", "nsd"),
-        ("min weight", "min_weight"),
-        ("negative weights", "negative_weight_fraction"),
-        ("  not both on boundary", "negative_weight_fraction_interior"),
+        ("finite", _cell(p["finite"]), _cell(d["finite"])),
+        ("symmetric", _cell(p["symmetric"]), _cell(d["symmetric"])),
+        ("max |row sum|", _cell(p["max_row_sum"]), _cell(d["max_row_sum"])),
+        ("linear precision residual", _cell(p["linear_precision_residual"]),
+         _cell(d["linear_precision_residual"])),
+        ("negative semidefinite", _cell(p["nsd"]), _cell(d["nsd"])),
+        ("min weight", _cell(p["min_weight"]), _cell(d["min_weight"])),
+        ("negative weights", _share(p["n_negative"], p["n_edges"]),
+         _share(d["n_negative"], d["n_edges"])),
+        ("  edges not both on the boundary", _share(p["n_negative_interior"], p["n_edges_interior"]),
+         _share(d["n_negative_interior"], d["n_edges_interior"])),
+        ("mass total (vs volume)", f"{p['mass_total']:.10g}", f"{d['mass_total']:.10g}"),
+        ("mass min", _cell(p["mass_min"]), _cell(d["mass_min"])),
+        ("vertices with mass <= 0", str(p["mass_nonpositive"]), str(d["mass_nonpositive"])),
     ]
-    width = max(len(r[0]) for r in rows)
-    print(f"\n{'property':<{width}}  {'primal':>12}  {'dual':>12}")
-    for label, key in rows:
-        cells = []
-        for kind in _KINDS:
-            v = result[kind][key]
-            cells.append(f"{100 * v:.2f}%" if "fraction" in key else _fmt(v))
-        print(f"{label:<{width}}  {cells[0]:>12}  {cells[1]:>12}")
-    m = result["mass"]
-    print(f"\nmass         {'total':>14}  {'min':>12}   (mesh volume {m['mesh_volume']:.10g})")
-    for kind in ("barycentric", "circumcentric"):
-        print(f"{kind:<12} {m[kind]['total']:>14.10g}  {m[kind]['min']:>12.3e}")
+    widths = [max(len(r[k]) for r in rows + [("property", "primal", "dual")]) for k in range(3)]
+    print()
+    print(f"{'property':<{widths[0]}}  {'primal':>{widths[1]}}  {'dual':>{widths[2]}}")
+    for label, a, b in rows:
+        print(f"{label:<{widths[0]}}  {a:>{widths[1]}}  {b:>{widths[2]}}")
+    print("(mass: barycentric with the primal, circumcentric with the dual)")
+    print()
+    for kind, r in (("primal", p), ("dual", d)):
+        print(f"semidefinite ({kind}): {r['nsd_method']}")
 
 
-def mass_output(output: str) -> str:
-    """Where ``tetlap assemble -o OUTPUT`` writes the mass matrix."""
-    return output[:-4] + ".mass.npz" if output.endswith(".npz") else output + ".mass.npz"
+def _info(args) -> int:
+    from . import info
+
+    V, T, source = _load(args.mesh)
+    result = info.report(V, T, nsd=not args.no_nsd, progress=None if not args.json else False)
+    if args.json:
+        print(json.dumps({"source": source, **result}, indent=2))
+    else:
+        _print_info(result, source)
+    return 0
+
+
+def output_names(output: str) -> tuple[str, str]:
+    """The files ``tetlap assemble -o OUTPUT`` writes: L and M (``.npz`` appended when
+    missing, as ``scipy.sparse.save_npz`` does)."""
+    base = output[:-4] if output.endswith(".npz") else output
+    return base + ".npz", base + ".mass.npz"
 
 
 def _assemble(args) -> int:
     import scipy.sparse as sp
 
-    from . import io
+    from . import assembly
 
     kind = args.laplacian
-    try:
+    with contextlib.suppress(ValueError):
         kind = float(kind)
-    except ValueError:
-        pass
-    try:
-        V, T = io.read(args.mesh)
-        L, M = assembly.operators(V, T, laplacian=kind, mass=args.mass,
-                                  degenerate=args.degenerate)
-        sp.save_npz(args.output, L)
-        sp.save_npz(mass_output(args.output), M)
-    except (ValueError, OSError, ImportError) as e:
-        print(f"tetlap: error: {e}", file=sys.stderr)
-        return 2
-    print(f"L ({args.laplacian}, {L.shape[0]} x {L.shape[1]}, {L.nnz} entries) -> {args.output}")
-    print(f"M ({args.mass}) -> {mass_output(args.output)}")
+    V, T, _ = _load(args.mesh)
+    L, M = assembly.operators(V, T, laplacian=kind, mass=args.mass, degenerate=args.degenerate)
+    l_file, m_file = output_names(args.output)
+    sp.save_npz(l_file, L)
+    sp.save_npz(m_file, M)
+    print(f"L ({args.laplacian}, {L.shape[0]} x {L.shape[1]}, {L.nnz} entries) -> {l_file}")
+    print(f"M ({args.mass}) -> {m_file}")
     return 0
+
+
+def _experiment(args) -> int:
+    from . import experiments
+
+    folder = experiments.run(args.name, quick=args.quick, out=args.out, seed=args.seed,
+                             meshes=args.meshes)
+    print((folder / "summary.txt").read_text(), end="")
+    print(f"files: {', '.join(sorted(p.name for p in folder.iterdir()))} in {folder}")
+    return 0
+
+
+def _distributed_info(args) -> int:
+    from . import distributed
+
+    result = distributed.info(args.points, args.tets)
+    from mpi4py import MPI
+
+    if MPI.COMM_WORLD.Get_rank() == 0:
+        print(json.dumps(result, indent=2))
+    return 0
+
+
+def _threads(text: str) -> int:
+    from . import _core
+
+    value = int(text)
+    if not 1 <= value <= _core.MAX_THREADS:
+        raise argparse.ArgumentTypeError(f"must be between 1 and {_core.MAX_THREADS}")
+    return value
+
+
+def _positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError("must be at least 1")
+    return value
+
+
+def _folder(text: str) -> str:
+    if not os.path.isdir(text):
+        raise argparse.ArgumentTypeError(f"no such folder: {text}")
+    return text
+
+
+def parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``tetlap`` command."""
+    p = argparse.ArgumentParser(
+        prog="tetlap", description="Laplace operators of tetrahedral meshes (also: python -m tetlap).")
+    p.add_argument("--version", action="version", version=f"tetlap {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    info = sub.add_parser("info", help="the mesh and the Table 1 properties of both Laplacians",
+                          description="Counts, mesh quality and the paper's Table 1 for the "
+                                      "primal and the dual Laplacian, with numbers.")
+    info.add_argument("mesh", nargs="?",
+                      help=f"mesh file (any format meshio reads); without it, {BUILT_IN}")
+    info.add_argument("--json", action="store_true", help="print one JSON object (default: tables)")
+    info.add_argument("--no-nsd", action="store_true",
+                      help="skip the semidefiniteness certificates (default: computed)")
+    asm = sub.add_parser("assemble", help="save L and M as scipy .npz files",
+                         description="Assemble L and M and save them for scipy.sparse.load_npz.")
+    asm.add_argument("mesh", help="mesh file (any format meshio reads)")
+    asm.add_argument("-o", "--output", required=True,
+                     help="L goes to OUTPUT (.npz appended if missing), M to OUTPUT.mass.npz")
+    asm.add_argument("--laplacian", default="dual",
+                     help='"primal", "dual" or a float t in [0, 1] (default: dual)')
+    asm.add_argument("--mass", default="circumcentric", choices=["barycentric", "circumcentric", "fem"],
+                     help="mass matrix (default: circumcentric)")
+    asm.add_argument("--degenerate", default="raise", choices=["raise", "skip"],
+                     help="zero-volume tets: an error, or no contribution (default: raise)")
+    bench = sub.add_parser("bench", help="timings against the floor and the baselines",
+                           description="Median timings of tetlap and the baselines installed, "
+                                       "side by side, on several kinds of mesh.")
+    bench.add_argument("--kinds", nargs="+", choices=["kuhn", "delaunay", "shuffled"],
+                       help="mesh kinds (default: all three; --quick: kuhn delaunay)")
+    bench.add_argument("--sizes", nargs="+", choices=["10k", "100k", "1M", "4M"],
+                       help="sizes in tets (default: 100k 1M; --quick: 10k 100k)")
+    bench.add_argument("--mesh", nargs="+", metavar="FILE", help="also time these mesh files")
+    bench.add_argument("--threads", type=_threads, default=None,
+                       help="worker threads (default: all cores)")
+    bench.add_argument("--repeat", type=_positive, default=None,
+                       help="repetitions, the median is reported (default: 5; --quick: 3)")
+    bench.add_argument("--operators", nargs="+", metavar="WORD",
+                       help="only cases whose name contains a word, e.g. primal dual Mesh check "
+                            "info numpy voronoi scikit (the floor and igl.cotmatrix always run)")
+    bench.add_argument("--quick", action="store_true", help="small sizes, fewer repetitions")
+    bench.add_argument("--json", action="store_true", help="print JSON records (default: a table)")
+    exp = sub.add_parser("experiment", help="reproduce the paper's experiments",
+                         description="One of the paper's Sec. 8 and 9 experiments: CSV, PNG, summary.")
+    exp.add_argument("name", choices=["dirichlet-shell", "eigen-ball", "negative-weights", "sphere3",
+                                      "flips"])
+    exp.add_argument("--quick", action="store_true", help="small sizes (< 2 minutes)")
+    exp.add_argument("--out", help="output folder (default: tetlap-experiments/NAME)")
+    exp.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    exp.add_argument("--meshes", type=_folder, help="negative-weights: a folder of mesh files")
+    dist = sub.add_parser("distributed-info",
+                          help="under mpirun: counts and checks with PETSc from .npy files")
+    dist.add_argument("points", help="(n, d) float .npy file")
+    dist.add_argument("tets", help="(m, 4) integer .npy file")
+    return p
+
+
+COMMANDS = {"info": _info, "assemble": _assemble, "experiment": _experiment,
+            "distributed-info": _distributed_info}
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="tetlap", description="Laplace operators of tetrahedral meshes (also: python -m tetlap).")
-    sub = parser.add_subparsers(dest="command", required=True)
-    p_info = sub.add_parser("info", help="properties of both Laplacians on a mesh")
-    p_info.add_argument("mesh", nargs="?", help="mesh file (any format meshio reads)")
-    p_info.add_argument("--json", action="store_true", help="print one JSON object")
-    p_info.add_argument("--no-nsd", action="store_true",
-                        help="skip the semidefiniteness check (the slowest one)")
-    p_asm = sub.add_parser("assemble", help="save L and M as scipy .npz files")
-    p_asm.add_argument("mesh", help="mesh file (any format meshio reads)")
-    p_asm.add_argument("-o", "--output", required=True,
-                       help="L goes to OUTPUT, M to OUTPUT with .npz replaced by .mass.npz")
-    p_asm.add_argument("--laplacian", default="dual",
-                       help='"primal", "dual" (default) or t in [0, 1]')
-    p_asm.add_argument("--mass", default="circumcentric",
-                       choices=["barycentric", "circumcentric", "fem"])
-    p_asm.add_argument("--degenerate", default="raise", choices=["raise", "skip"])
-    p_bench = sub.add_parser("bench", help="timings against the floor and the baselines")
-    p_bench.add_argument("--sizes", nargs="+", choices=["10k", "100k", "1M", "4M"],
-                         help="Kuhn-grid sizes in tets (default 10k 100k 1M; --quick: 10k 100k)")
-    p_bench.add_argument("--threads", type=int, default=None, help="worker threads (default: all)")
-    p_bench.add_argument("--repeat", type=int, default=None, help="repetitions (median reported)")
-    p_bench.add_argument("--operators", nargs="+", metavar="WORD",
-                         help="only cases whose name contains a word, e.g. primal dual "
-                              "mass Mesh igl (the floor and igl.cotmatrix always run)")
-    p_bench.add_argument("--quick", action="store_true", help="small sizes, fast baselines only")
-    p_bench.add_argument("--json", action="store_true", help="print JSON records")
-    p_exp = sub.add_parser("experiment", help="reproduce the paper's experiments")
-    p_exp.add_argument("name", choices=["dirichlet-shell", "eigen-ball", "negative-weights",
-                                        "sphere3", "flips"])
-    p_exp.add_argument("--quick", action="store_true", help="small sizes (< 2 minutes)")
-    p_exp.add_argument("--out", help="output folder (default tetlap-experiments/NAME)")
-    p_exp.add_argument("--seed", type=int, default=0)
-    p_exp.add_argument("--meshes", help="negative-weights: a folder of mesh files")
-    p_dist = sub.add_parser("distributed-info",
-                            help="under mpirun: counts and checks with PETSc from .npy files")
-    p_dist.add_argument("points", help="(n, d) float .npy file")
-    p_dist.add_argument("tets", help="(m, 4) integer .npy file")
-    args = parser.parse_args(argv)
+    """Run the command; 2 with one line ``tetlap: error: ...`` on stderr for bad input."""
+    args = parser().parse_args(argv)
+    try:
+        if args.command == "bench":
+            from . import benchmark
 
-    if args.command == "distributed-info":
-        from . import distributed
-
-        result = distributed.info(args.points, args.tets)
-        from mpi4py import MPI
-
-        if MPI.COMM_WORLD.Get_rank() == 0:
-            print(json.dumps(result, indent=2))
-        return 0
-
-    if args.command == "experiment":
-        from . import experiments
-
-        folder = experiments.run(args.name, quick=args.quick, out=args.out, seed=args.seed,
-                                 meshes=args.meshes)
-        print((folder / "summary.txt").read_text(), end="")
-        print(f"files: {', '.join(sorted(p.name for p in folder.iterdir()))} in {folder}")
-        return 0
-
-    if args.command == "bench":
-        from . import benchmark
-
-        return benchmark.main(args)
-
-    if args.command == "assemble":
-        return _assemble(args)
-    if args.command == "info":
-        try:
-            V, T, source = _load(args.mesh)
-            result = info(V, T, nsd=not args.no_nsd)
-        except (ValueError, OSError, ImportError) as e:
-            print(f"tetlap: error: {e}", file=sys.stderr)
-            return 2
-        if args.json:
-            print(json.dumps({"source": source, **result}, indent=2))
-        else:
-            _print_info(result, source)
-    return 0
+            return benchmark.main(args)
+        return COMMANDS[args.command](args)
+    except KeyboardInterrupt:
+        print("tetlap: interrupted", file=sys.stderr)
+        return 130
+    except (TetlapError, OSError, ImportError, ValueError) as e:
+        print(f"tetlap: error: {e}", file=sys.stderr)
+        return 2

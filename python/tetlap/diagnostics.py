@@ -41,6 +41,7 @@ __all__ = [
     "non_delaunay_faces",
     "non_delaunay_tets",
     "face_normals",
+    "summary",
 ]
 
 #: Relative tolerance of the Delaunay test: a point counts as inside a circumsphere only
@@ -71,11 +72,16 @@ def faces(T) -> np.ndarray:
     return T[:, _FACES].reshape(-1, 3)
 
 
-def boundary_faces(T) -> np.ndarray:
+def boundary_faces(T, *, return_tets: bool = False):
     """Faces that belong to exactly one tet, (f, 3) int64, oriented like their tet (outward
-    for positively oriented tets), in the order of their tets."""
+    for positively oriented tets), in the order of their tets.
+
+    With ``return_tets=True`` also the tet of every face (f,) and the corner of that tet
+    opposite the face (f,).
+    """
     T, (boundary, _, _) = _face_sets(T)
-    return T[boundary[:, 0][:, None], _FACES[boundary[:, 1]]]
+    F = T[boundary[:, 0][:, None], _FACES[boundary[:, 1]]]
+    return (F, boundary[:, 0], boundary[:, 1]) if return_tets else F
 
 
 def interior_faces(T):
@@ -202,3 +208,57 @@ def face_normals(V, F) -> np.ndarray:
     2``, (k, 3) float64 (length = area, direction by the right-hand rule)."""
     P = _arrays.points(V)[np.asarray(F)]
     return np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]) / 2
+
+
+def summary(V, T, rtol: float = DELAUNAY_RTOL) -> dict:
+    """Counts and extremes of every diagnostic at once (one pass of each core routine), as
+    a JSON-ready dict: vertices (on the boundary, unreferenced), tets (positive, negative,
+    degenerate, duplicate), faces (boundary, interior, non-manifold), the fraction of
+    non-Delaunay interior faces and tets, the dihedral range in degrees, the fraction of
+    well-centred tets and the mesh volume. Geometric entries that need R^3 are None for an
+    immersed mesh.
+
+    Example
+    -------
+    >>> import tetlap
+    >>> s = tetlap.diagnostics.summary(*tetlap.meshes.cube(2))
+    >>> s["n_tets"], s["n_boundary_faces"], s["non_delaunay_face_fraction"]
+    (48, 48, 0.0)
+    """
+    V = _arrays.points(V)
+    T = _arrays.elements(T, 4)
+    n, in_r3 = len(V), V.shape[1] == 3
+    boundary, interior, nonmanifold = _core.faces(T, n)
+    volume, dihedral, well = _core.quality(V, T)
+    on_boundary = np.zeros(n, dtype=bool)
+    on_boundary[T[boundary[:, 0][:, None], _FACES[boundary[:, 1]]].ravel()] = True
+    referenced = np.zeros(n, dtype=bool)
+    referenced[T.ravel()] = True
+    flat = np.abs(volume) <= 1e-12 * np.abs(volume).mean()
+    result = {
+        "n_vertices": n,
+        "n_tets": len(T),
+        "n_boundary_vertices": int(on_boundary.sum()),
+        "n_unreferenced_vertices": int((~referenced).sum()),
+        "n_positive_tets": int((volume > 0).sum()) if in_r3 else None,
+        "n_negative_tets": int((volume < 0).sum()) if in_r3 else None,
+        "n_degenerate_tets": int(flat.sum()),
+        "n_duplicate_tets": int(_core.duplicates(T, n).sum()),
+        "n_boundary_faces": len(boundary),
+        "n_interior_faces": len(interior),
+        "n_nonmanifold_faces": len(nonmanifold),
+        "min_dihedral_deg": float(np.nanmin(dihedral)) if not np.isnan(dihedral).all() else None,
+        "max_dihedral_deg": float(np.nanmax(dihedral)) if not np.isnan(dihedral).all() else None,
+        "well_centered_tet_fraction": float(well.mean()),
+        "mesh_volume": float(np.abs(volume).sum()),
+        "non_delaunay_face_fraction": None,
+        "non_delaunay_tet_fraction": None,
+    }
+    if in_r3:
+        flags = _core.non_delaunay(V, T, interior, float(rtol))
+        bad = np.zeros(len(T), dtype=bool)
+        bad[interior[flags][:, [0, 2]].ravel()] = True
+        result["n_non_delaunay_faces"] = int(flags.sum())
+        result["non_delaunay_face_fraction"] = float(flags.mean()) if len(flags) else 0.0
+        result["non_delaunay_tet_fraction"] = float(bad.mean())
+    return result

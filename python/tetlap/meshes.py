@@ -12,16 +12,15 @@ import itertools
 
 import numpy as np
 
+from .diagnostics import signed_volumes
+
 __all__ = ["compact", "cube", "ball", "shell", "sphere3", "optimized_ball", "optimized_shell", "weighted_ball", "regular_triangulation", "single_tet", "orient"]
 
 
 def orient(V, T) -> np.ndarray:
     """A copy of ``T`` with every negatively oriented tet made positive (corners 2, 3 swapped)."""
-    V = np.asarray(V, dtype=np.float64)
     T = np.array(T, dtype=np.int64)
-    e = V[T[:, 1:]] - V[T[:, :1]]
-    det = np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2]))
-    flip = det < 0
+    flip = signed_volumes(V, T) < 0
     T[flip, 2], T[flip, 3] = T[flip, 3].copy(), T[flip, 2].copy()
     return T
 
@@ -102,8 +101,7 @@ def _ball_points(n: int, rng) -> np.ndarray:
 
 
 def _drop_flat(V, T):
-    e = V[T[:, 1:]] - V[T[:, :1]]
-    vol = np.abs(np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2]))) / 6
+    vol = np.abs(signed_volumes(V, T))
     return T[vol > 1e-12 * vol.mean()]
 
 
@@ -271,10 +269,8 @@ def _gmsh_mesh(build, h: float, seed: int):
                             for t, nd in zip(types, nodes) if t == 4])
     finally:
         gmsh.finalize()
-    used = np.unique(T)
-    remap = np.full(len(V), -1)
-    remap[used] = np.arange(len(used))
-    return V[used], orient(V[used], remap[T])
+    V, T = compact(V, T)
+    return V, orient(V, T)
 
 
 def optimized_ball(h: float = 0.1, *, seed: int = 0):

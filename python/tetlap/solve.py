@@ -18,9 +18,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
-from scipy.sparse.linalg import eigsh, spsolve, splu
+from scipy.sparse.linalg import eigsh, spsolve
 
-from . import _arrays
+from . import _arrays, diagnostics
 from .errors import DtypeError, IndexRangeError, OptionError, ShapeError
 from .errors import TetlapError
 
@@ -117,7 +117,7 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate") -> np.nd
     return f
 
 
-def _components(L, n):
+def _components(L):
     referenced = np.asarray(abs(L).sum(axis=1)).ravel() > 0
     _, labels = csgraph.connected_components(sp.csr_array(L != 0), directed=False)
     return labels, referenced
@@ -146,7 +146,7 @@ def neumann(L, g, rhs=None, *, gauge="mean", rtol: float = 1e-6) -> np.ndarray:
         data = data + np.asarray(rhs, dtype=np.float64)
     if data.shape != (n,):
         raise ShapeError(f"g and rhs must have shape ({n},)")
-    labels, referenced = _components(L, n)
+    labels, referenced = _components(L)
     comps = np.unique(labels[referenced])
     rows, cols, vals = [], [], []
     for k, c in enumerate(comps):
@@ -187,26 +187,16 @@ def neumann_primal_kkt(L, V, T, normal_derivative, rhs=None, *, gauge="mean") ->
 
     Linear functions are reproduced exactly. Returns f (n,).
     """
-    from .diagnostics import boundary_faces, interior_vertices
-
     L = sp.csr_array(L, dtype=np.float64)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
     n = len(V)
-    bf = boundary_faces(T)
-    # the tet of every boundary face and its opposite corner
-    from .diagnostics import faces as all_faces
-
-    F = np.sort(all_faces(T), axis=1)
-    keys, inverse, counts = np.unique(F, axis=0, return_inverse=True, return_counts=True)
-    once = np.flatnonzero(counts[inverse.ravel()] == 1)
-    tets = once // 4
-    P = V[bf]
-    centroid = P.mean(axis=1)
-    normal = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    bf, tets, corners = diagnostics.boundary_faces(T, return_tets=True)
+    centroid = V[bf].mean(axis=1)
+    normal = diagnostics.face_normals(V, bf)
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     # orient outward: away from the tet's opposite vertex
-    opposite = V[T[tets, once % 4]]
+    opposite = V[T[tets, corners]]
     normal *= np.sign(np.einsum("ij,ij->i", normal, centroid - opposite))[:, None]
     g = normal_derivative(centroid, normal) if callable(normal_derivative) else np.asarray(
         normal_derivative, dtype=np.float64)
@@ -218,7 +208,7 @@ def neumann_primal_kkt(L, V, T, normal_derivative, rhs=None, *, gauge="mean") ->
     coef = np.einsum("fd,fda->fa", normal, grads)
     C = sp.csr_array((coef.ravel(), (np.repeat(np.arange(len(bf)), 4), T[tets].ravel())),
                      shape=(len(bf), n))
-    inner = interior_vertices(T, n)
+    inner = diagnostics.interior_vertices(T, n)
     LI = L[inner]
     b = np.zeros(int(inner.sum())) if rhs is None else np.asarray(rhs, dtype=np.float64)[inner]
     gauge_row = sp.csr_array(np.ones((1, n)) if gauge == "mean" else
@@ -234,14 +224,12 @@ def neumann_primal_kkt(L, V, T, normal_derivative, rhs=None, *, gauge="mean") ->
 def _boundary_pieces(V, T):
     """Boundary faces (F, 3), outward unit normals, and per corner the circumcentric
     (signed) and the barycentric areas of the face."""
-    from .diagnostics import boundary_faces
-
     V = _arrays.points(V)
-    bf = boundary_faces(_arrays.elements(T, 4))
+    bf = diagnostics.boundary_faces(T)
     P = V[bf]
-    n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
-    area = np.linalg.norm(n, axis=1) / 2
-    unit = n / (2 * area[:, None])
+    n = diagnostics.face_normals(V, bf)
+    area = np.linalg.norm(n, axis=1)
+    unit = n / area[:, None]
     # circumcentric piece of corner a: triangles (x_a, c_ab, c) and (x_a, c_ac, c), signed
     # area = (|ab|^2 cot(angle at c) + |ac|^2 cot(angle at b)) / 8
     cot = np.empty((len(bf), 3))

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import assembly
-from . import progress
+from .._progress import bar as progress
 
 TWO = np.array([[0, 1, 2, 3], [0, 1, 2, 4]])
 THREE = np.array([[3, 4, 0, 1], [3, 4, 1, 2], [3, 4, 2, 0]])

@@ -15,7 +15,7 @@ import numpy as np
 
 from .. import assembly, io, meshes
 from ..properties import check
-from . import progress
+from .._progress import bar as progress
 
 SUFFIXES = {".mesh", ".msh", ".vtu", ".vtk", ".ele"}
 

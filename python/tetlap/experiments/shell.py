@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import assembly, diagnostics, meshes, solve
-from . import progress
+from .._progress import bar as progress
 
 KINDS = ("primal", "dual")
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import assembly, meshes
-from . import progress
+from .._progress import bar as progress
 
 
 def run(out) -> None:
