@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _meshobj
 from .errors import DtypeError, EmptyMeshError, IndexRangeError, ShapeError
 
 _I64_MAX = np.iinfo(np.int64).max
@@ -25,6 +26,19 @@ def _as_array(x, name: str) -> np.ndarray:
     if arr.dtype == object:
         raise DtypeError(f"{name} must hold numbers, got Python objects (dtype=object)")
     return arr
+
+
+def mesh(V, T):
+    """``(V, T)`` as given, or the arrays of one mesh object passed as ``V`` (a
+    ``meshio.Mesh``, a ``pyvista.UnstructuredGrid``, or anything with ``points`` and tetra
+    or triangle cells) when ``T`` is None."""
+    if T is None:
+        if _meshobj.is_mesh_object(V):
+            return _meshobj.to_arrays(V, stacklevel=4)
+        raise TypeError(
+            f"T is missing: pass V and T arrays, or one mesh object (meshio, PyVista, ...) "
+            f"instead of V; got {type(V).__name__}")
+    return V, T
 
 
 def points(V) -> np.ndarray:

@@ -16,9 +16,12 @@ V : (n, d) array-like of real numbers
     Vertex positions, any real dtype (converted to float64). ``d >= 3`` for tets,
     ``d >= 2`` for triangles; a larger ``d`` means an immersed mesh (e.g. a
     tetrahedralised 3-sphere in R^4), every element computed in its own 3-space (2-space).
-T : (m, 4) or (m, 3) array-like of integers
+T : (m, 4) or (m, 3) array-like of integers, optional
     Tets or triangles: 0-based vertex indices, any integer dtype, any orientation (results
-    do not depend on the orientation or vertex order of an element).""",
+    do not depend on the orientation or vertex order of an element). Leave it out to pass
+    one mesh object as ``V`` instead: a ``meshio.Mesh``, a ``pyvista.UnstructuredGrid`` or
+    anything with ``points`` and tetra or triangle cells (see
+    :func:`tetlap.io.from_mesh`); options then go by keyword.""",
     "kind": """\
 kind : {"primal", "dual"} or float, default "primal"
     ``"primal"``: P1 FEM / cotan weights (paper Eq. 7), always negative semidefinite.

@@ -27,13 +27,14 @@ __all__ = [
 
 
 def _inputs(V, T, weights):
+    V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T)
     return V, T, _arrays.vertex_weights(weights, V.shape[0])
 
 
 @shared_docs
-def laplacian(V, T, kind="primal", *, boundary="circumcentric", weights=None,
+def laplacian(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
               degenerate="raise", threads=None) -> sp.csr_array:
     """The (n, n) Laplacian of a tetrahedral or triangle mesh.
 
@@ -69,7 +70,7 @@ def laplacian(V, T, kind="primal", *, boundary="circumcentric", weights=None,
 
 
 @shared_docs
-def mass(V, T, kind="barycentric", *, boundary="circumcentric", weights=None,
+def mass(V, T=None, kind="barycentric", *, boundary="circumcentric", weights=None,
          degenerate="raise", threads=None) -> sp.csr_array:
     """The (n, n) mass matrix of a tetrahedral or triangle mesh.
 
@@ -102,7 +103,7 @@ def mass(V, T, kind="barycentric", *, boundary="circumcentric", weights=None,
 
 
 @shared_docs
-def operators(V, T, laplacian="primal", mass="barycentric", *, boundary="circumcentric",
+def operators(V, T=None, laplacian="primal", mass="barycentric", *, boundary="circumcentric",
               weights=None, degenerate="raise",
               threads=None) -> tuple[sp.csr_array, sp.csr_array]:
     """The Laplacian and a mass matrix from one pass over the elements.
@@ -151,7 +152,7 @@ class Triplets(NamedTuple):
 
 
 @shared_docs
-def triplets(V, T, kind="primal", *, boundary="circumcentric", weights=None,
+def triplets(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
              degenerate="raise", threads=None) -> Triplets:
     """The Laplacian as unsummed triplets: each element's local Laplacian.
 
@@ -188,7 +189,7 @@ def triplets(V, T, kind="primal", *, boundary="circumcentric", weights=None,
 
 
 @shared_docs
-def edge_weights(V, T, kind="primal", *, boundary="circumcentric", weights=None,
+def edge_weights(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
                  degenerate="raise", threads=None) -> tuple[np.ndarray, np.ndarray]:
     """The unique edges of the mesh and their summed weights.
 
@@ -221,7 +222,7 @@ def edge_weights(V, T, kind="primal", *, boundary="circumcentric", weights=None,
 
 
 @shared_docs
-def tet_contributions(V, T, kind="primal", *, boundary="circumcentric", weights=None,
+def tet_contributions(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
                       degenerate="raise", threads=None) -> np.ndarray:
     """Per-element edge weights (each element's contribution to ``L``).
 

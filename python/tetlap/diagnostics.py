@@ -5,7 +5,9 @@ Every function is computed by the parallel Rust core in ``O(m)`` (faces are matc
 counting sort on their smallest vertex, not by a global sort), answers Ctrl-C, validates
 its input like :func:`tetlap.laplacian` and never modifies it. ``T`` is an (m, 4) integer
 array of tets in any orientation; where geometry is involved, ``V`` is (n, 3) (the
-dihedral angles, volumes and well-centredness also work for tets immersed in R^d).
+dihedral angles, volumes and well-centredness also work for tets immersed in R^d). One
+mesh object (meshio, PyVista, ...) may stand for ``T`` or, with ``T`` left out, for
+``(V, T)``.
 
 Example
 -------
@@ -19,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _arrays, _core
+from . import _arrays, _core, _meshobj
 
 __all__ = [
     "DELAUNAY_RTOL",
@@ -60,15 +62,22 @@ def _vertex_count(T: np.ndarray, n: int | None) -> int:
     return int(n)
 
 
+def _tets(T) -> np.ndarray:
+    """``T`` (or the tets of a mesh object) as (m, 4) int64."""
+    if _meshobj.is_mesh_object(T):
+        T = _meshobj.to_arrays(T, stacklevel=4)[1]
+    return _arrays.elements(T, 4)
+
+
 def _face_sets(T, n=None):
-    T = _arrays.elements(T, 4)
+    T = _tets(T)
     return T, _core.faces(T, _vertex_count(T, n))
 
 
 def faces(T) -> np.ndarray:
     """All 4 m faces of the tets, (4 m, 3) int64; row ``4 t + c`` is the face opposite
     corner ``c`` of tet ``t``, oriented outward for a positively oriented tet."""
-    T = _arrays.elements(T, 4)
+    T = _tets(T)
     return T[:, _FACES].reshape(-1, 3)
 
 
@@ -120,7 +129,7 @@ def boundary_vertices(T, n: int | None = None) -> np.ndarray:
 
 def referenced_vertices(T, n: int | None = None) -> np.ndarray:
     """Boolean mask (n,) of the vertices that belong to at least one tet."""
-    T = _arrays.elements(T, 4)
+    T = _tets(T)
     mask = np.zeros(_vertex_count(T, n), dtype=bool)
     mask[T.ravel()] = True
     return mask
@@ -134,68 +143,76 @@ def interior_vertices(T, n: int | None = None) -> np.ndarray:
 def mesh_edges(T) -> np.ndarray:
     """Unique edges, (E, 2) int64 with ``i < j``, sorted lexicographically (tets or
     triangles)."""
+    if _meshobj.is_mesh_object(T):
+        T = _meshobj.to_arrays(T, stacklevel=3)[1]
     T = _arrays.elements(T)
     return _core.edges(T, _vertex_count(T, None))
 
 
 def duplicate_tets(T) -> np.ndarray:
     """Boolean (m,): tets whose vertex set appeared in an earlier row (any order)."""
-    T = _arrays.elements(T, 4)
+    T = _tets(T)
     return _core.duplicates(T, _vertex_count(T, None))
 
 
-def _quality(V, T):
-    return _core.quality(_arrays.points(V), _arrays.elements(T, 4))
+def _geometry(V, T):
+    """``(V, T)`` arrays (or those of one mesh object passed as ``V``), checked."""
+    V, T = _arrays.mesh(V, T)
+    return _arrays.points(V), _arrays.elements(T, 4)
 
 
-def signed_volumes(V, T) -> np.ndarray:
+def _quality(V, T=None):
+    return _core.quality(*_geometry(V, T))
+
+
+def signed_volumes(V, T=None) -> np.ndarray:
     """Signed volume per tet, (m,) float64: ``det[x1-x0, x2-x0, x3-x0] / 6``; positive means
     the VTK/gmsh/Medit orientation. For immersed meshes (d > 3) the unsigned volume."""
     return _quality(V, T)[0]
 
 
-def orientation(V, T) -> np.ndarray:
+def orientation(V, T=None) -> np.ndarray:
     """Sign of ``det[x1-x0, x2-x0, x3-x0]`` per tet, (m,) int8: +1, -1 or 0 (flat)."""
     return np.sign(signed_volumes(V, T)).astype(np.int8)
 
 
-def degenerate_tets(V, T, rtol: float = 1e-12) -> np.ndarray:
+def degenerate_tets(V, T=None, rtol: float = 1e-12) -> np.ndarray:
     """Boolean (m,): tets with ``|Vol| <= rtol * mean|Vol|`` (exactly flat ones included)."""
     vol = np.abs(signed_volumes(V, T))
     return vol <= rtol * vol.mean()
 
 
-def dihedral_angles(V, T) -> np.ndarray:
+def dihedral_angles(V, T=None) -> np.ndarray:
     """The six dihedral angles of every tet in degrees, (m, 6) float64, at the local edges
     ``(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)``. NaN for flat tets."""
     return _quality(V, T)[1]
 
 
-def min_dihedral_angles(V, T) -> np.ndarray:
+def min_dihedral_angles(V, T=None) -> np.ndarray:
     """Smallest dihedral angle of every tet in degrees, (m,) (NaN for flat tets)."""
     return dihedral_angles(V, T).min(axis=1)
 
 
-def well_centered(V, T) -> np.ndarray:
+def well_centered(V, T=None) -> np.ndarray:
     """Boolean (m,): the tet's circumcenter is strictly inside it and every face's
     circumcenter strictly inside that face (all face angles acute)."""
     return _quality(V, T)[2]
 
 
-def non_delaunay_faces(V, T, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
+def non_delaunay_faces(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     """Boolean per interior face (order of :func:`interior_faces`): the opposite vertex of
     the second tet lies strictly inside the circumsphere of the first (up to ``rtol``
     relative to the lifted determinant's Hadamard bound). In exact arithmetic the test is
     symmetric in the two tets. R^3 only."""
-    V = _arrays.points(V)
+    V, T = _geometry(V, T)
     T, (_, interior, _) = _face_sets(T, len(V))
     return _core.non_delaunay(V, T, interior, float(rtol))
 
 
-def non_delaunay_tets(V, T, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
+def non_delaunay_tets(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     """Boolean (m,): tets with a face whose neighbour's opposite vertex is inside their
     circumsphere (either side of the face counts)."""
-    V = _arrays.points(V)
+    V, T = _geometry(V, T)
     T, (_, interior, _) = _face_sets(T, len(V))
     flags = _core.non_delaunay(V, T, interior, float(rtol))
     bad = np.zeros(len(T), dtype=bool)
@@ -210,7 +227,7 @@ def face_normals(V, F) -> np.ndarray:
     return np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]) / 2
 
 
-def summary(V, T, rtol: float = DELAUNAY_RTOL) -> dict:
+def summary(V, T=None, rtol: float = DELAUNAY_RTOL) -> dict:
     """Counts and extremes of every diagnostic at once (one pass of each core routine), as
     a JSON-ready dict: vertices (on the boundary, unreferenced), tets (positive, negative,
     degenerate, duplicate), faces (boundary, interior, non-manifold), the fraction of
@@ -225,8 +242,7 @@ def summary(V, T, rtol: float = DELAUNAY_RTOL) -> dict:
     >>> s["n_tets"], s["n_boundary_faces"], s["non_delaunay_face_fraction"]
     (48, 48, 0.0)
     """
-    V = _arrays.points(V)
-    T = _arrays.elements(T, 4)
+    V, T = _geometry(V, T)
     n, in_r3 = len(V), V.shape[1] == 3
     boundary, interior, nonmanifold = _core.faces(T, n)
     volume, dihedral, well = _core.quality(V, T)

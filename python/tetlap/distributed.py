@@ -5,7 +5,10 @@ contiguous slice of the tets and the coordinates of the vertices that slice uses
 computes that share's operators with the same Rust core, and adds them into a distributed
 PETSc matrix (``MPIAIJ``, contiguous row ownership) with ``ADD_VALUES``. No rank holds the
 whole mesh or the whole matrix. Needs ``petsc4py`` (with MUMPS), ``slepc4py`` and
-``mpi4py``; see the README's third command.
+``mpi4py``; see the README's third command. Debian's petsc4py and slepc4py are found
+without ``PETSC_DIR`` / ``SLEPC_DIR`` (the newest ``/usr/lib/petscdir/petsc*/*-real``);
+every function that needs them raises a one-line ``ImportError`` saying whether a package
+is missing or installed but failing to import (and why).
 
 Conventions are tetlap's: ``L[i, j] = w_ij``, ``L[i, i] = -sum_j w_ij``.
 
@@ -17,6 +20,13 @@ Conventions are tetlap's: ``L[i, j] = w_ij``, ``L[i, i] = -sum_j w_ij``.
 
 from __future__ import annotations
 
+import glob
+import importlib
+import importlib.util
+import os
+import re
+import sys
+
 import numpy as np
 
 from . import assembly
@@ -24,15 +34,74 @@ from . import assembly
 __all__ = ["assemble", "load_share", "dirichlet", "eigs", "boundary_rows", "info", "to_scipy"]
 
 
-def _petsc():
+# Debian installs petsc4py / slepc4py under PETSc's and SLEPc's own prefixes; its .pth
+# files put them on sys.path only if PETSC_DIR / SLEPC_DIR is set when Python starts (or
+# petsc-dev's /usr/lib/petsc link exists). Real scalars: tetlap's matrices are real.
+_DEBIAN_PREFIXES = {
+    "petsc4py": ("PETSC_DIR", "/usr/lib/petscdir/petsc*/*-linux-gnu-real"),
+    "slepc4py": ("SLEPC_DIR", "/usr/lib/slepcdir/slepc*/*-linux-gnu-real"),
+}
+_INSTALL = ("Debian: apt-get install python3-petsc4py python3-slepc4py python3-mpi4py "
+            "openmpi-bin, and use /usr/bin/python3 or a venv made from it with "
+            "--system-site-packages; see the README")
+
+
+def _version_key(path: str) -> tuple[int, ...]:
+    return tuple(int(x) for x in re.findall(r"\d+", path))
+
+
+def _find_debian(module: str) -> str:
+    """Make Debian's ``module`` (petsc4py or slepc4py) importable when Python started
+    without PETSC_DIR / SLEPC_DIR: set the variable to the newest real-scalar prefix (if
+    unset) and add the prefix's ``lib/python3/dist-packages`` to ``sys.path``. Only for
+    Debian's own Python (``sys.base_prefix == "/usr"``), for which those modules are built.
+    Returns a note for the error message when that did not happen."""
+    if importlib.util.find_spec(module) is not None:
+        return ""
+    var, pattern = _DEBIAN_PREFIXES[module]
+    prefixes = [os.environ[var]] if os.environ.get(var) else sorted(
+        glob.glob(pattern), key=_version_key)
+    if not prefixes:
+        return ""
+    site = os.path.join(prefixes[-1], "lib", "python3", "dist-packages")
+    if not os.path.isdir(os.path.join(site, module)):
+        return f"; {var}={prefixes[-1]} has no {module}" if os.environ.get(var) else ""
+    if sys.base_prefix != "/usr":
+        return (f"; Debian's {module} in {site} is built for /usr/bin/python3, not for "
+                f"{sys.executable}")
+    os.environ.setdefault(var, prefixes[-1])
+    if site not in sys.path:
+        sys.path.append(site)
+    importlib.invalidate_caches()
+    return ""
+
+
+def _import(module: str, what: str = ""):
+    """Import ``module`` (or ``module.what``) with a one-line ImportError that says
+    whether it is missing or installed but broken."""
+    note = _find_debian(module) if module in _DEBIAN_PREFIXES else ""
+    spec = importlib.util.find_spec(module)
+    if spec is None:
+        raise ImportError(f"tetlap.distributed needs {module}, which is not installed{note}"
+                          f" ({_INSTALL})")
     try:
-        from mpi4py import MPI  # noqa: F401  (initialises MPI before PETSc)
-        from petsc4py import PETSc
-    except ImportError:
-        raise ImportError(
-            "tetlap.distributed needs petsc4py and mpi4py (Debian: python3-petsc4py "
-            "python3-slepc4py python3-mpi4py openmpi-bin; see the README)") from None
-    return PETSc
+        top = importlib.import_module(module)
+        return importlib.import_module(f"{module}.{what}") if what else top
+    except Exception as e:  # ImportError, or a RuntimeError from a broken MPI / PETSc
+        reason = " ".join(f"{type(e).__name__}: {e}".split())
+        raise ImportError(f"{module} is installed ({os.path.dirname(spec.origin or '')}) but "
+                          f"failed to import: {reason}") from e
+
+
+def _petsc():
+    """petsc4py's ``PETSc`` module, after mpi4py's ``MPI`` (which initialises MPI)."""
+    _import("mpi4py", "MPI")
+    return _import("petsc4py", "PETSc")
+
+
+def _slepc():
+    _petsc()
+    return _import("slepc4py", "SLEPc")
 
 
 def _share(m: int, rank: int, size: int) -> tuple[int, int]:
@@ -194,7 +263,7 @@ def eigs(L, M, k: int = 10, fixed=(), *, sigma: float = -1e-3):
     generalised Hermitian problem, shift-and-invert around ``sigma`` with a MUMPS LU.
     ``M`` a ``Vec`` (lumped) or ``Mat``; ``fixed`` global ids. Returns eigenvalues (k,)."""
     PETSc = _petsc()
-    from slepc4py import SLEPc
+    SLEPc = _slepc()
 
     lo, hi = L.getOwnershipRange()
     fixed = np.asarray(fixed, dtype=np.int64)
@@ -233,7 +302,7 @@ def eigs(L, M, k: int = 10, fixed=(), *, sigma: float = -1e-3):
 def info(points_path, tets_path, comm=None) -> dict:
     """Global counts and the Table-1 checks that work distributed, for both operators."""
     PETSc = _petsc()
-    from mpi4py import MPI
+    MPI = _import("mpi4py", "MPI")
 
     comm = comm or PETSc.COMM_WORLD
     mpi = comm.tompi4py()

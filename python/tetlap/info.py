@@ -25,7 +25,7 @@ __all__ = ["report", "PAIRS"]
 PAIRS = (("primal", "barycentric"), ("dual", "circumcentric"))
 
 
-def report(V, T, *, nsd: bool = True, progress: bool | None = None) -> dict:
+def report(V, T=None, *, nsd: bool = True, progress: bool | None = None) -> dict:
     """The report of ``tetlap info`` as a JSON-ready dict.
 
     Parameters
@@ -46,6 +46,7 @@ def report(V, T, *, nsd: bool = True, progress: bool | None = None) -> dict:
         Report dict includes its mass checks (``mass_min``, ``mass_nonpositive``,
         ``mass_total``, ``mesh_volume``).
     """
+    V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
     step = Stages("tetlap info", progress)

@@ -1,81 +1,404 @@
-"""Reading and writing tetrahedral meshes (every format meshio reads).
+"""Mesh files and mesh objects in, meshio and pyvista objects out.
 
->>> import tetlap.io  # doctest: +SKIP
+Reading: :func:`read` takes a file in any format meshio reads (``.msh``, ``.mesh``,
+``.vtu``, ``.vtk``, TetGen ``.ele``, ...) or a mesh object; :func:`from_mesh` takes a
+``meshio.Mesh``, a ``pyvista.UnstructuredGrid`` (or any pyvista dataset) or any object with
+``points`` and cells. Both return ``(V, T)``: the linear tets if there are any, else the
+triangles. Writing: :func:`write` (a file), :func:`to_meshio`, :func:`to_pyvista` and
+:func:`edges_to_pyvista` (e.g. the negative-weight edges) for plotting.
+
+Needs the optional dependencies ``meshio`` (``pip install 'tetlap[io]'``) for files and
+``pyvista`` (``pip install 'tetlap[pyvista]'``) for :func:`to_pyvista`.
+
+Examples
+--------
+>>> import meshio, tetlap, tetlap.io
+>>> V, T = tetlap.meshes.cube(2)
+>>> V2, T2 = tetlap.io.from_mesh(meshio.Mesh(V, [("tetra", T)]))
+>>> bool((V2 == V).all() and (T2 == T).all())
+True
 >>> V, T = tetlap.io.read("part.msh")  # doctest: +SKIP
 """
 
 from __future__ import annotations
 
+import contextlib
+import io as _stdio
 import os
-import warnings
+import sys
 
 import numpy as np
 
-from .errors import MeshFileError
+from . import _arrays
+from ._meshobj import is_mesh_object, to_arrays
+from .errors import DtypeError, IndexRangeError, MeshFileError, ShapeError
 
-__all__ = ["read", "write"]
+__all__ = ["read", "from_mesh", "write", "to_meshio", "to_pyvista", "edges_to_pyvista"]
 
 
-def read(path: str | os.PathLike):
-    """Read the linear tets of a mesh file with meshio.
+def _meshio():
+    try:
+        import meshio
+    except ImportError:  # pragma: no cover - exercised only without the extra
+        raise ImportError("mesh files need meshio: pip install 'tetlap[io]'") from None
+    return meshio
+
+
+def _pyvista():
+    try:
+        import pyvista
+    except ImportError:  # pragma: no cover - exercised only without the extra
+        raise ImportError("to_pyvista needs pyvista: pip install 'tetlap[pyvista]'") from None
+    return pyvista
+
+
+def from_mesh(obj, cell_type=None):
+    """The vertices and linear tets (or triangles) of a mesh object.
+
+    Parameters
+    ----------
+    obj : meshio.Mesh, pyvista dataset, or any object with ``points`` and cells
+        ``cells`` may be a list of meshio ``CellBlock`` s or ``(type, data)`` pairs, or a
+        dict (also as ``cells_dict``) from a meshio type name (``"tetra"``) or a VTK cell
+        type id (10) to an ``(m, k)`` integer array; pyvista grids are read through their
+        ``celltypes`` and connectivity arrays. Any pyvista dataset (``PolyData``, ...) is
+        cast to an ``UnstructuredGrid`` first.
+    cell_type : None, "tetra" or "triangle"
+        None (default): the tets if there are any, else the triangles.
 
     Returns
     -------
-    V : (n, 3) float64 (all points of the file: unreferenced vertices are kept, so indices
-        never shift; tetlap's operators give them empty rows and zero mass).
-    T : (m, 4) int64, the file's orientation (tetlap does not depend on it).
+    V : (n, d) float64 ndarray
+        All points of the object, a copy (unreferenced points are kept, so indices never
+        shift; tetlap's operators give them empty rows and zero mass).
+    T : (m, 4) or (m, 3) int64 ndarray
+        The cells in the object's order and orientation (tetlap does not depend on it).
 
-    Other cell types (triangles, lines, ...) are dropped with a ``UserWarning`` naming them.
-    TetGen pairs: pass the ``.ele`` path (meshio reads the ``.node`` beside it).
-    Requires the optional dependency ``meshio`` (``pip install tetlap[io]``).
+    Raises
+    ------
+    ShapeError
+        Other cells of the kept dimension (hexahedra, wedges or quadratic tets next to tets;
+        quads or polygons next to triangles), or no tets or triangles at all (e.g. only
+        hexahedra or lines). It is the class ``tetlap.laplacian(V, hexes)`` raises for an
+        ``(m, 8)`` array: the cells have the wrong number of vertices.
+    DtypeError
+        Cell data that is not integer.
+    EmptyMeshError
+        No cells.
+    TypeError
+        Not a mesh object.
+
+    Warns
+    -----
+    UserWarning
+        Naming the lower-dimensional cells that were dropped (e.g. the boundary triangles
+        and lines a ``.msh`` file stores next to its tets).
+
+    Examples
+    --------
+    >>> import meshio, tetlap, tetlap.io
+    >>> V, T = tetlap.meshes.cube(2)
+    >>> mesh = meshio.Mesh(V, [("tetra", T)])
+    >>> V2, T2 = tetlap.io.from_mesh(mesh)
+    >>> V2.shape, T2.shape, T2.dtype.name
+    ((27, 3), (48, 4), 'int64')
+    >>> L = tetlap.laplacian(*tetlap.io.from_mesh(mesh), kind="dual")
+
+    A pyvista grid (here made by :func:`to_pyvista`) goes the same way:
+
+    >>> grid = tetlap.io.to_pyvista(V, T)
+    >>> V3, T3 = tetlap.io.from_mesh(grid)
+    >>> bool((T3 == T).all())
+    True
     """
-    try:
-        import meshio
-    except ImportError:  # pragma: no cover - exercised only without the extra
-        raise ImportError("reading mesh files needs meshio: pip install 'tetlap[io]'") from None
-    path = os.fspath(path)
+    return to_arrays(obj, cell_type, stacklevel=2)
+
+
+def read(path, cell_type=None):
+    """Read the vertices and linear tets (or triangles) of a mesh file with meshio.
+
+    Parameters
+    ----------
+    path : str, os.PathLike, or a mesh object
+        A file in any format meshio reads; TetGen pairs: pass the ``.ele`` path (meshio
+        reads the ``.node`` beside it). A mesh object (``meshio.Mesh``, pyvista grid, ...)
+        is passed to :func:`from_mesh`.
+    cell_type : None, "tetra" or "triangle"
+        None (default): the tets if there are any, else the triangles.
+
+    Returns
+    -------
+    V : (n, d) float64 ndarray
+        All points of the file (unreferenced vertices are kept, so indices never shift;
+        tetlap's operators give them empty rows and zero mass).
+    T : (m, 4) or (m, 3) int64 ndarray
+        The file's cells and orientation (tetlap does not depend on it).
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    MeshFileError
+        meshio cannot read the file (unknown format, malformed content). meshio's own
+        ``sys.exit`` on some malformed files is caught: it never ends the program.
+    ShapeError, EmptyMeshError
+        The file holds no usable cells; see :func:`from_mesh`.
+
+    Warns
+    -----
+    UserWarning
+        Naming the lower-dimensional cells that were dropped.
+
+    Notes
+    -----
+    meshio prints to stdout while reading some formats (a blank line for ``.msh``). That
+    output is captured, so a caller's own stdout (e.g. JSON) stays clean; non-blank text is
+    passed on to stderr. The capture swaps ``sys.stdout`` / ``sys.stderr`` for the duration
+    of the call.
+
+    Examples
+    --------
+    >>> import tetlap.io
+    >>> V, T = tetlap.io.read("part.msh")  # doctest: +SKIP
+    >>> V, T = tetlap.io.read("deer.ele")  # TetGen .node/.ele  # doctest: +SKIP
+    """
+    if not isinstance(path, (str, bytes, os.PathLike)):
+        if is_mesh_object(path):
+            return to_arrays(path, cell_type, stacklevel=2)
+        raise TypeError(f"read takes a file path or a mesh object, got {type(path).__name__}")
+    meshio = _meshio()
+    path = os.fsdecode(path)
     if not os.path.exists(path):
         raise FileNotFoundError(f"no such mesh file: {path}")
+    out, err = _stdio.StringIO(), _stdio.StringIO()
     try:
-        mesh = meshio.read(path)
-    except Exception as e:  # meshio raises its own ReadError, KeyError, ValueError, ...
-        raise MeshFileError(f"{path}: meshio could not read it ({type(e).__name__}: {e})") from e
-    tets = [c.data for c in mesh.cells if c.type == "tetra"]
-    dropped = sorted({c.type for c in mesh.cells if c.type != "tetra"})
-    if dropped:
-        warnings.warn(f"{path}: dropped non-tet cells {dropped}", UserWarning,
-                      stacklevel=2)
-    T = np.concatenate(tets).astype(np.int64) if tets else np.zeros((0, 4), dtype=np.int64)
-    V = np.asarray(mesh.points, dtype=np.float64)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            mesh = meshio.read(path)
+    except (KeyboardInterrupt, MemoryError):
+        raise
+    except BaseException as e:  # ReadError, KeyError, ValueError, ... and SystemExit
+        said = " ".join(out.getvalue().split())
+        if isinstance(e, SystemExit):
+            reason = said or "meshio gave up on it"
+        else:
+            reason = f"{type(e).__name__}: {e}" + (f"; {said}" if said else "")
+        raise MeshFileError(f"{path}: meshio could not read it ({reason})") from None
+    printed = (out.getvalue() + err.getvalue()).strip()
+    if printed:
+        print(printed, file=sys.stderr)
+    return to_arrays(mesh, cell_type, source=path, stacklevel=2)
+
+
+def _check_range(T, n: int, what: str) -> None:
+    bad = (T < 0) | (T >= n)
+    if bad.any():
+        row = int(np.flatnonzero(bad.any(axis=1))[0])
+        index = int(T[row][bad[row]][0])
+        raise IndexRangeError(f"{what} {row} refers to vertex {index}, but there are {n} "
+                              "vertices", element=row, index=index)
+
+
+def _points3d(V: np.ndarray) -> np.ndarray:
     if V.shape[1] == 2:
-        V = np.column_stack([V, np.zeros(len(V))])
-    return V, T
+        return np.column_stack([V, np.zeros(len(V))])
+    if V.shape[1] != 3:
+        raise ShapeError(f"pyvista needs 2-D or 3-D points, V has shape {V.shape}; project "
+                         "an immersed mesh to 3-D first")
+    return V
 
 
-def write(path: str | os.PathLike, V, T, *, cell_data: dict | None = None,
-          point_data: dict | None = None) -> None:
-    """Write a tet mesh with optional per-tet / per-vertex arrays (for ParaView etc.).
+def _checked(V, T, point_data, cell_data):
+    """Validated copies: ``V`` (n, d) float64, ``T`` (m, 3|4) int64 with indices in range,
+    and the data arrays with one row per vertex / per cell."""
+    V = np.array(_arrays.points(V), copy=True)
+    T = np.array(_arrays.elements(T), copy=True)
+    n, m = len(V), len(T)
+    _check_range(T, n, "element")
+    data = []
+    for what, rows, given in (("point_data", n, point_data), ("cell_data", m, cell_data)):
+        arrays = {}
+        for name, values in (given or {}).items():
+            a = np.array(values, copy=True)
+            if a.ndim == 0 or len(a) != rows:
+                unit = "vertices" if what == "point_data" else "cells"
+                raise ShapeError(f"{what}[{name!r}] has shape {a.shape}, the mesh {rows} {unit}")
+            arrays[str(name)] = a
+        data.append(arrays)
+    return V, T, data[0], data[1]
 
-    ``cell_data`` maps names to (m,) or (m, k) arrays (e.g. the minimum edge weight per
-    tet, or a non-Delaunay flag, as in the paper's Fig. 7); ``point_data`` to (n,) or
-    (n, k) arrays. The format follows the file extension (``.vtu`` recommended).
 
-    Example
+def to_meshio(V, T, point_data=None, cell_data=None):
+    """A ``meshio.Mesh`` of the tets (or triangles) with per-vertex / per-cell arrays.
+
+    Parameters
+    ----------
+    V : (n, d) array-like of float
+    T : (m, 4) or (m, 3) array-like of int
+        Tets or triangles. A float ``T`` is refused (:class:`tetlap.DtypeError`), never
+        truncated.
+    point_data : dict of name -> (n,) or (n, k) array-like, optional
+    cell_data : dict of name -> (m,) or (m, k) array-like, optional
+
+    Returns
     -------
-    >>> import tetlap, tetlap.io  # doctest: +SKIP
-    >>> V, T = tetlap.meshes.ball(1000)  # doctest: +SKIP
-    >>> W = tetlap.tet_contributions(V, T, "dual")  # doctest: +SKIP
+    meshio.Mesh
+        One cell block (``"tetra"`` or ``"triangle"``); every array is a copy.
+
+    Raises
+    ------
+    ShapeError, DtypeError, IndexRangeError
+        Bad ``V`` / ``T``, or data with the wrong number of rows.
+
+    Examples
+    --------
+    >>> import tetlap, tetlap.io
+    >>> V, T = tetlap.meshes.cube(2)
+    >>> M = tetlap.mass(V, T, "circumcentric")
+    >>> mesh = tetlap.io.to_meshio(V, T, point_data={"dual_mass": M.diagonal()})
+    >>> mesh.cells[0].type, mesh.point_data["dual_mass"].shape
+    ('tetra', (27,))
+    """
+    meshio = _meshio()
+    V, T, points, cells = _checked(V, T, point_data, cell_data)
+    kind = "tetra" if T.shape[1] == 4 else "triangle"
+    return meshio.Mesh(V, [(kind, T)], point_data=points,
+                       cell_data={name: [a] for name, a in cells.items()})
+
+
+def write(path, V, T, *, cell_data=None, point_data=None) -> None:
+    """Write a tet (or triangle) mesh with optional per-cell / per-vertex arrays.
+
+    The format follows the file extension (``.vtu`` recommended, for ParaView etc.).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    V : (n, d) array-like of float
+    T : (m, 4) or (m, 3) array-like of int
+        A float ``T`` is refused (:class:`tetlap.DtypeError`), never truncated.
+    cell_data : dict of name -> (m,) or (m, k) array-like, optional
+        E.g. the minimum edge weight per tet, or a non-Delaunay flag (the paper's Fig. 7).
+    point_data : dict of name -> (n,) or (n, k) array-like, optional
+        E.g. the dual (circumcentric) masses.
+
+    Raises
+    ------
+    ShapeError, DtypeError, IndexRangeError
+        Bad ``V`` / ``T``, or data with the wrong number of rows.
+    MeshFileError
+        meshio cannot write that format.
+
+    Examples
+    --------
+    >>> import tetlap, tetlap.io
+    >>> V, T = tetlap.meshes.ball(1000)
+    >>> W = tetlap.tet_contributions(V, T, "dual")
     >>> tetlap.io.write("ball.vtu", V, T, cell_data={"min_weight": W.min(axis=1)})  # doctest: +SKIP
     """
+    mesh = to_meshio(V, T, point_data=point_data, cell_data=cell_data)
+    path = os.fspath(path)
     try:
-        import meshio
-    except ImportError:  # pragma: no cover - exercised only without the extra
-        raise ImportError("writing mesh files needs meshio: pip install 'tetlap[io]'") from None
-    T = np.asarray(T, dtype=np.int64)
-    cells = {name: [np.asarray(a)] for name, a in (cell_data or {}).items()}
-    for name, (a,) in cells.items():
-        if len(a) != len(T):
-            raise ValueError(f"cell_data[{name!r}] has {len(a)} rows, the mesh {len(T)} tets")
-    mesh = meshio.Mesh(np.asarray(V, dtype=np.float64), [("tetra", T)], cell_data=cells,
-                       point_data={k: np.asarray(v) for k, v in (point_data or {}).items()})
-    mesh.write(os.fspath(path))
+        with contextlib.redirect_stdout(sys.stderr):
+            mesh.write(path)
+    except (KeyboardInterrupt, MemoryError):
+        raise
+    except OSError:
+        raise
+    except BaseException as e:
+        raise MeshFileError(f"{path}: meshio could not write it ({type(e).__name__}: {e})"
+                            ) from None
+
+
+def to_pyvista(V, T, point_data=None, cell_data=None):
+    """A ``pyvista.UnstructuredGrid`` of the tets (or triangles), for plotting.
+
+    Parameters
+    ----------
+    V : (n, 2) or (n, 3) array-like of float
+        2-D points get a zero z coordinate. (Immersed meshes, d > 3, need a projection
+        first: pyvista is 3-D.)
+    T : (m, 4) or (m, 3) array-like of int
+        Tets (``CellType.TETRA``) or triangles (``CellType.TRIANGLE``).
+    point_data : dict of name -> (n,) or (n, k) array-like, optional
+        E.g. the dual masses ``tetlap.mass(V, T, "circumcentric").diagonal()``.
+    cell_data : dict of name -> (m,) or (m, k) array-like, optional
+        E.g. the minimum dual edge weight per tet.
+
+    Returns
+    -------
+    pyvista.UnstructuredGrid
+        Every array is a copy: changing the grid never changes ``V``, ``T`` or the data.
+
+    Raises
+    ------
+    ShapeError, DtypeError, IndexRangeError
+        Bad ``V`` / ``T``, ``d > 3``, or data with the wrong number of rows.
+
+    Examples
+    --------
+    >>> import tetlap, tetlap.io
+    >>> V, T = tetlap.meshes.cube(3, jitter=0.2, seed=1)
+    >>> masses = tetlap.mass(V, T, "circumcentric").diagonal()
+    >>> grid = tetlap.io.to_pyvista(V, T, point_data={"dual_mass": masses})
+    >>> grid.n_cells == len(T), bool(abs(grid["dual_mass"].sum() - 1.0) < 1e-12)
+    (True, True)
+    >>> grid.plot(scalars="dual_mass")  # doctest: +SKIP
+    """
+    pv = _pyvista()
+    V, T, points, cells = _checked(V, T, point_data, cell_data)
+    V = _points3d(V)
+    kind = pv.CellType.TETRA if T.shape[1] == 4 else pv.CellType.TRIANGLE
+    grid = pv.UnstructuredGrid({kind: T}, V)
+    for name, a in points.items():
+        grid.point_data[name] = a
+    for name, a in cells.items():
+        grid.cell_data[name] = a
+    return grid
+
+
+def edges_to_pyvista(V, edges, values=None, name="value"):
+    """A ``pyvista.PolyData`` of line cells, one per edge, e.g. the negative-weight edges.
+
+    Parameters
+    ----------
+    V : (n, 2) or (n, 3) array-like of float
+    edges : (E, 2) array-like of int
+        As :func:`tetlap.edge_weights` returns them.
+    values : (E,) or (E, k) array-like, optional
+        Stored as cell data under ``name`` (e.g. the weights, to colour the lines).
+    name : str
+
+    Returns
+    -------
+    pyvista.PolyData
+        All of ``V`` as points and ``E`` line cells; arrays are copies.
+
+    Examples
+    --------
+    >>> import tetlap, tetlap.io
+    >>> V, T = tetlap.meshes.ball(300, seed=0)
+    >>> edges, w = tetlap.edge_weights(V, T, "dual")
+    >>> negative = w < 0
+    >>> lines = tetlap.io.edges_to_pyvista(V, edges[negative], w[negative], name="weight")
+    >>> lines.n_cells == int(negative.sum()), bool((lines["weight"] < 0).all())
+    (True, True)
+    >>> import pyvista as pv  # doctest: +SKIP
+    >>> p = pv.Plotter(); p.add_mesh(tetlap.io.to_pyvista(V, T), opacity=0.1)  # doctest: +SKIP
+    >>> p.add_mesh(lines, scalars="weight", line_width=3); p.show()  # doctest: +SKIP
+    """
+    pv = _pyvista()
+    V = _points3d(np.array(_arrays.points(V), copy=True))
+    E = _arrays._as_array(edges, "edges")
+    if E.dtype.kind not in "iu":
+        raise DtypeError(f"edges must hold integer vertex indices, got dtype {E.dtype}")
+    if E.ndim != 2 or E.shape[1] != 2:
+        raise ShapeError(f"edges must have shape (E, 2), got {E.shape}")
+    E = E.astype(np.int64)
+    _check_range(E, len(V), "edge")
+    poly = pv.PolyData(V, lines=np.column_stack([np.full(len(E), 2), E]).ravel())
+    if values is not None:
+        a = np.array(values, copy=True)
+        if a.ndim == 0 or len(a) != len(E):
+            raise ShapeError(f"values has shape {a.shape}, but there are {len(E)} edges")
+        poly.cell_data[name] = a
+    return poly

@@ -36,8 +36,8 @@ class Mesh:
     ----------
     V : (n, d) array-like of real numbers
         Vertex positions (see :func:`tetlap.laplacian`).
-    T : (m, 4) or (m, 3) array-like of integers
-        Tets or triangles, any orientation.
+    T : (m, 4) or (m, 3) array-like of integers, optional
+        Tets or triangles, any orientation; leave it out to pass a mesh object as ``V``.
     boundary, weights, degenerate, threads
         As for :func:`tetlap.laplacian`; they apply to every operator of this mesh.
 
@@ -62,8 +62,9 @@ class Mesh:
     0
     """
 
-    def __init__(self, V, T, *, boundary="circumcentric", weights=None, degenerate="raise",
-                 threads=None) -> None:
+    def __init__(self, V, T=None, *, boundary="circumcentric", weights=None,
+                 degenerate="raise", threads=None) -> None:
+        V, T = _arrays.mesh(V, T)
         V, T = _arrays.points(V), _arrays.elements(T)
         w = _arrays.vertex_weights(weights, V.shape[0])
         self._core = _core.Mesh(V, T, weights=w, boundary=boundary, degenerate=degenerate,

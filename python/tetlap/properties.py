@@ -133,7 +133,7 @@ def _csr_args(A: sp.csr_array):
     return A.data, A.indices.astype(np.int64), A.indptr.astype(np.int64)
 
 
-def check(L, V, T, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL,
+def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL,
           nsd: bool = True) -> Report:
     """Check a Laplacian ``L`` (and mass ``M``) of the mesh ``(V, T)`` against Table 1.
 
@@ -143,8 +143,8 @@ def check(L, V, T, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL,
         In the paper's sign convention (``L[i, i] = -sum_j L[i, j]``). Not modified.
     V : (n, d) array-like of real numbers
         Vertex positions.
-    T : (m, 4) array-like of integers
-        Tets, any orientation.
+    T : (m, 4) array-like of integers, optional
+        Tets, any orientation; leave it out to pass a mesh object as ``V``.
     M : (n, n) SciPy sparse array or matrix, optional
         A mass matrix (lumped or consistent): positivity and total volume are checked.
     kind : {"primal", "dual"} or float, optional
@@ -187,6 +187,7 @@ def check(L, V, T, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL,
     >>> r.nsd, r.n_negative_interior > 0
     (False, True)
     """
+    V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
     n = V.shape[0]

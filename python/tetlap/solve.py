@@ -173,7 +173,8 @@ def neumann(L, g, rhs=None, *, gauge="mean", rtol: float = 1e-6) -> np.ndarray:
     return sol[:n]
 
 
-def neumann_primal_kkt(L, V, T, normal_derivative, rhs=None, *, gauge="mean") -> np.ndarray:
+def neumann_primal_kkt(L, V, T=None, normal_derivative=None, rhs=None, *,
+                       gauge="mean") -> np.ndarray:
     """Primal Neumann problem with the gradient constraints of Eq. 25, in a KKT system.
 
     For every boundary face (of a tet ``t``) the normal component of the gradient of the
@@ -188,8 +189,7 @@ def neumann_primal_kkt(L, V, T, normal_derivative, rhs=None, *, gauge="mean") ->
     Linear functions are reproduced exactly. Returns f (n,).
     """
     L = sp.csr_array(L, dtype=np.float64)
-    V = _arrays.points(V)
-    T = _arrays.elements(T, 4)
+    V, T = _geometry(V, T, normal_derivative)
     n = len(V)
     bf, tets, corners = diagnostics.boundary_faces(T, return_tets=True)
     centroid = V[bf].mean(axis=1)
@@ -221,6 +221,14 @@ def neumann_primal_kkt(L, V, T, normal_derivative, rhs=None, *, gauge="mean") ->
     return sol[:n]
 
 
+def _geometry(V, T, normal_derivative):
+    """``(V, T)`` arrays (or those of one mesh object passed as ``V``), checked."""
+    if normal_derivative is None:
+        raise TypeError("normal_derivative is missing (pass it by keyword with a mesh object)")
+    V, T = _arrays.mesh(V, T)
+    return _arrays.points(V), _arrays.elements(T, 4)
+
+
 def _boundary_pieces(V, T):
     """Boundary faces (F, 3), outward unit normals, and per corner the circumcentric
     (signed) and the barycentric areas of the face."""
@@ -244,6 +252,7 @@ def _boundary_pieces(V, T):
 
 
 def _flux(V, T, normal_derivative, which: int) -> np.ndarray:
+    V, T = _geometry(V, T, normal_derivative)
     bf, unit, circ, bary, P = _boundary_pieces(V, T)
     area = (circ, bary)[which]
     n = len(_arrays.points(V))
@@ -258,7 +267,7 @@ def _flux(V, T, normal_derivative, which: int) -> np.ndarray:
     return np.bincount(bf.ravel(), weights=(area * values).ravel(), minlength=n)
 
 
-def dual_boundary_areas(V, T, normal_derivative) -> np.ndarray:
+def dual_boundary_areas(V, T=None, normal_derivative=None) -> np.ndarray:
     """Integrated normal flux ``g`` per vertex for the dual Neumann problem ``L f = -g``.
 
     Each boundary face is split into the circumcentric pieces of its corners (signed, the
@@ -269,7 +278,7 @@ def dual_boundary_areas(V, T, normal_derivative) -> np.ndarray:
     return _flux(V, T, normal_derivative, 0)
 
 
-def fem_boundary_areas(V, T, normal_derivative) -> np.ndarray:
+def fem_boundary_areas(V, T=None, normal_derivative=None) -> np.ndarray:
     """The P1 boundary load ``g_i = int_boundary (n . grad u) phi_i``: the natural Neumann
     condition of the primal (each face's flux shared equally by its corners)."""
     return _flux(V, T, normal_derivative, 1)

@@ -12,6 +12,7 @@ import numpy as np
 
 from .. import assembly, diagnostics, meshes, solve
 from .._progress import bar as progress
+from ._plot import log_ticks
 
 K = 32
 PAIRS = (("primal", "barycentric"), ("primal", "circumcentric"),
@@ -81,7 +82,10 @@ def run(out) -> None:
         keys = [k for k in spectra if k[1] in (sizes[-1],) and k[2:] in
                 (("primal", "barycentric"), ("dual", "circumcentric"))]
         fams = list(dict.fromkeys(k[0] for k in keys))
-        fig, axes = plt.subplots(1, len(fams), figsize=(5 * len(fams), 4), squeeze=False)
+        fig, axes = plt.subplots(1, len(fams), figsize=(5 * len(fams), 4.4), squeeze=False,
+                                 layout="constrained")
+        fig.suptitle(f"eigen-ball: the {K} smallest Dirichlet eigenvalues of the unit ball "
+                     "(paper Fig. 10)")
         for ax, family in zip(axes[0], fams):
             ax.plot(np.arange(1, K + 1), exact, "k-", label="exact")
             for k in keys:
@@ -95,7 +99,10 @@ def run(out) -> None:
 
     def fig11(plt):
         fams = [f for f in dict.fromkeys(r["family"] for r in out.rows) if "weighted" not in f]
-        fig, axes = plt.subplots(1, len(fams), figsize=(5 * len(fams), 4), squeeze=False)
+        fig, axes = plt.subplots(1, len(fams), figsize=(5 * len(fams), 4.4), squeeze=False,
+                                 layout="constrained")
+        fig.suptitle(f"eigen-ball: mean deviation of the {K} smallest eigenvalues from the "
+                     "exact ones (paper Fig. 11)")
         for ax, family in zip(axes[0], fams):
             for lap, mass in PAIRS:
                 mine = [r for r in out.rows if r["family"] == family and r["laplacian"] == lap
@@ -107,6 +114,7 @@ def run(out) -> None:
             ax.set_ylabel(f"mean relative deviation ({K} eigenvalues)")
             ax.set_title(family)
             ax.legend(fontsize=8)
+            log_ticks(ax)
         return fig
 
     out.figure("fig10_spectrum.png", fig10)

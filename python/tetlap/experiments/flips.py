@@ -73,13 +73,32 @@ def run(out) -> None:
                 f"{(lam[~delaunay] >= 0).mean() * 100:.1f}% when not); max rank gap {gap:.1e}")
 
     def fig(plt):
-        fig, ax = plt.subplots(figsize=(6, 5))
+        from matplotlib.ticker import FixedLocator, NullLocator
+
+        def symlog_ticks(values, most=9):
+            """0 and +-10^k on the sides the values reach, every few decades so that at
+            most ``most`` labels share the axis (none next to 0, where they would collide)."""
+            top = int(np.ceil(np.log10(max(np.abs(values).max(), 1e-2))))
+            sides = [s for s in (-1, 1) if (s * values > 1e-3).any()]
+            stride = 1
+            while 1 + len(sides) * len(range(-2, top + 1, stride)) > most:
+                stride += 1
+            exps = [k for k in range(-2, top + 1) if k % stride == 0]
+            return sorted([0.0] + [s * 10.0**k for s in sides for k in exps])
+
+        fig, ax = plt.subplots(figsize=(7, 5.5), layout="constrained")
+        fig.suptitle(r"flips: a 3-2 flip changes $-f^T L f$ by $-\lambda\,(u \cdot f)^2$, "
+                     r"where $L_2 - L_3 = \lambda\, u u^T$"
+                     "\n(paper Sec. 9, which has no figure for it)")
         lp = np.array([r["lambda_primal"] for r in rows])
         ld = np.array([r["lambda_dual"] for r in rows])
         for mask, label in ((delaunay, "2-tet split Delaunay"), (~delaunay, "3-tet split Delaunay")):
             ax.scatter(lp[mask], ld[mask], s=4, label=label)
         ax.set_xscale("symlog", linthresh=1e-3)
         ax.set_yscale("symlog", linthresh=1e-3)
+        for axis, values in ((ax.xaxis, lp), (ax.yaxis, ld)):
+            axis.set_major_locator(FixedLocator(symlog_ticks(values)))
+            axis.set_minor_locator(NullLocator())
         ax.axhline(0, color="k", lw=0.5)
         ax.axvline(0, color="k", lw=0.5)
         ax.set_xlabel("lambda, primal (> 0: 3-2 flip lowers the energy)")

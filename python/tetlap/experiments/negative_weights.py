@@ -67,12 +67,17 @@ def run(out, meshes=None) -> None:
                 f"dual {100 * r['negative_fraction_dual']:6.2f}%")
 
     def fig12(plt):
-        fig, ax = plt.subplots(figsize=(6, 4))
+        from matplotlib.ticker import MaxNLocator
+
+        fig, ax = plt.subplots(figsize=(6.5, 4.4), layout="constrained")
+        fig.suptitle(f"negative-weights: negative weights on {len(rows)} meshes "
+                     "(paper Fig. 12)")
         bins = np.linspace(0, max(p.max(), d.max(), 1e-3) * 1.05, 20)
         ax.hist(p, bins=bins, alpha=0.6, label="primal")
         ax.hist(d, bins=bins, alpha=0.6, label="dual")
         ax.set_xlabel("fraction of negative weights (edges not both on the boundary)")
         ax.set_ylabel("meshes")
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
         ax.legend()
         return fig
 

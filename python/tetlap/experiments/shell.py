@@ -12,6 +12,7 @@ import numpy as np
 
 from .. import assembly, diagnostics, meshes, solve
 from .._progress import bar as progress
+from ._plot import log_ticks
 
 KINDS = ("primal", "dual")
 
@@ -79,7 +80,10 @@ def run(out) -> None:
 
     def fig8(plt):
         fams = [f for f in dict.fromkeys(r["family"] for r in rows) if f != "weighted Delaunay"]
-        fig, axes = plt.subplots(1, len(fams), figsize=(5 * len(fams), 4), squeeze=False)
+        fig, axes = plt.subplots(1, len(fams), figsize=(5 * len(fams), 4.4), squeeze=False,
+                                 layout="constrained")
+        fig.suptitle("dirichlet-shell: variance of f on r = 0.75 vs mean edge length "
+                     "(paper Fig. 8)")
         for ax, family in zip(axes[0], fams):
             mine = [r for r in rows if r["family"] == family]
             for kind, marker in zip(KINDS, "os"):
@@ -89,11 +93,14 @@ def run(out) -> None:
             ax.set_ylabel("variance of f on r = 0.75")
             ax.set_title(family)
             ax.legend()
+            log_ticks(ax)
         return fig
 
     def fig9(plt):
         mine = [r for r in rows if r["family"] == "weighted Delaunay"]
-        fig, ax = plt.subplots(figsize=(7, 4))
+        fig, ax = plt.subplots(figsize=(7, 4.4), layout="constrained")
+        fig.suptitle("dirichlet-shell: variance of f on r = 0.75 on weighted-Delaunay meshes "
+                     "(paper Fig. 9)")
         for k, (kind, color) in enumerate(zip(KINDS, ("C0", "C1"))):
             data = [[r[f"variance_{kind}"] for r in mine if r["weight_scale"] == w] for w in scales]
             pos = np.arange(len(scales)) + (k - 0.5) * 0.35
@@ -111,6 +118,7 @@ def run(out) -> None:
         ax.set_xlabel("non-Delaunay tets")
         ax.set_ylabel("variance of f on r = 0.75")
         ax.legend()
+        log_ticks(ax, "y")
         return fig
 
     out.figure("fig8_variance_vs_edge_length.png", fig8)

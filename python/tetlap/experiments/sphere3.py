@@ -12,6 +12,7 @@ import numpy as np
 
 from .. import assembly, meshes
 from .._progress import bar as progress
+from ._plot import log_ticks
 
 
 def run(out) -> None:
@@ -44,7 +45,9 @@ def run(out) -> None:
                 f"min weight {min(r[f'min_weight_{kind}'] for r in rows):.3e}")
 
     def fig14(plt):
-        fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+        fig, axes = plt.subplots(1, 2, figsize=(10, 4.4), layout="constrained")
+        fig.suptitle("sphere3: normals and mean curvature on the 3-sphere in R^4 "
+                     "(paper Fig. 14)")
         for kind, marker in (("primal", "o-"), ("dual", "s-")):
             n = [r["n_vertices"] for r in rows]
             axes[0].loglog(n, [r[f"normal_angle_mean_deg_{kind}"] for r in rows], marker, label=kind)
@@ -54,6 +57,7 @@ def run(out) -> None:
         for ax in axes:
             ax.set_xlabel("samples on S^3")
             ax.legend()
+            log_ticks(ax)
         return fig
 
     out.figure("fig14_sphere3_convergence.png", fig14)

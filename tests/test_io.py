@@ -1,0 +1,291 @@
+"""tetlap.io: mesh objects in (meshio, pyvista, look-alikes), files in and out, and the
+errors of both."""
+
+from __future__ import annotations
+
+import doctest
+import types
+import warnings
+
+import numpy as np
+import pytest
+
+import tetlap
+import tetlap.io
+
+meshio = pytest.importorskip("meshio")
+
+
+@pytest.fixture
+def cube():
+    return tetlap.meshes.cube(2, jitter=0.1, seed=3)
+
+
+def assert_same(a, b):
+    (V, T), (V2, T2) = a, b
+    assert V2.dtype == np.float64 and T2.dtype == np.int64
+    np.testing.assert_array_equal(V2, V)
+    np.testing.assert_array_equal(T2, T)
+
+
+# ---- meshio objects -------------------------------------------------------------------
+
+
+def test_from_meshio_roundtrip_returns_copies(cube):
+    V, T = cube
+    mesh = meshio.Mesh(V, [("tetra", T.astype(np.int32))])
+    V2, T2 = tetlap.io.from_mesh(mesh)
+    assert_same(cube, (V2, T2))
+    assert not np.shares_memory(V2, mesh.points) and not np.shares_memory(T2, mesh.cells[0].data)
+
+
+def test_from_meshio_keeps_tets_of_every_block_and_warns_about_dropped_cells(cube):
+    V, T = cube
+    mesh = meshio.Mesh(V, [("tetra", T[:10]), ("triangle", T[:5, :3]), ("tetra", T[10:]),
+                           ("line", T[:2, :2]), ("vertex", T[:1, :1])])
+    with pytest.warns(UserWarning, match=r"\['line', 'triangle', 'vertex'\]"):
+        assert_same(cube, tetlap.io.from_mesh(mesh))
+
+
+def test_triangles_when_there_are_no_tets():
+    V = np.array([[0.0, 0], [1, 0], [0, 1], [1, 1]])
+    F = np.array([[0, 1, 2], [1, 3, 2]])
+    with pytest.warns(UserWarning, match="line"):
+        V2, F2 = tetlap.io.from_mesh(meshio.Mesh(V, [("line", F[:, :2]), ("triangle", F)]))
+    assert_same((V, F), (V2, F2))  # planar points stay 2-D: tetlap takes d >= 2 triangles
+    assert tetlap.laplacian(V2, F2).shape == (4, 4)
+
+
+def test_cell_type_triangle_takes_the_boundary_of_a_tet_file(cube):
+    V, T = cube
+    F = T[:4, :3]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the tets are not "dropped" when triangles are asked for
+        _, F2 = tetlap.io.from_mesh(meshio.Mesh(V, [("tetra", T), ("triangle", F)]),
+                                    cell_type="triangle")
+    np.testing.assert_array_equal(F2, F)
+    with pytest.raises(tetlap.ShapeError, match="no tetra cells"):
+        tetlap.io.from_mesh(meshio.Mesh(V, [("triangle", F)]), cell_type="tetra")
+    with pytest.raises(tetlap.OptionError):
+        tetlap.io.from_mesh(meshio.Mesh(V, [("tetra", T)]), cell_type="hexahedron")
+
+
+HEX = np.arange(8)[None, :]
+
+
+@pytest.mark.parametrize("blocks, match", [
+    ([("tetra", None), ("hexahedron", HEX)], r"tetra cells mixed with \['hexahedron'\]"),
+    ([("tetra", None), ("wedge", HEX[:, :6])], r"mixed with \['wedge'\]"),
+    ([("tetra", None), ("tetra10", np.arange(10)[None, :])], r"mixed with \['tetra10'\]"),
+    ([("triangle", None), ("quad", HEX[:, :4])], r"triangle cells mixed with \['quad'\]"),
+    ([("hexahedron", HEX), ("quad", HEX[:, :4])], r"no tetra cells, found hexahedron \(1\)"),
+    ([("hexahedron", HEX), ("triangle", HEX[:, :3])], "no tetra cells"),
+    ([("line", HEX[:, :2]), ("vertex", HEX[:, :1])], "no tets or triangles"),
+    ([("tetra10", np.arange(10)[None, :])], r"\[:, :4\]"),
+])
+def test_unusable_cells_are_a_shape_error(cube, blocks, match):
+    V, T = cube
+    cells = [(t, T if d is None and t == "tetra" else T[:, :3] if d is None else d)
+             for t, d in blocks]
+    with pytest.raises(tetlap.ShapeError, match=match):
+        tetlap.io.from_mesh(meshio.Mesh(V, cells))
+
+
+def test_no_cells_and_float_cells(cube):
+    V, T = cube
+    with pytest.raises(tetlap.EmptyMeshError, match="no cells"):
+        tetlap.io.from_mesh(meshio.Mesh(V, []))
+    with pytest.raises(tetlap.DtypeError, match="integer"):
+        tetlap.io.from_mesh(types.SimpleNamespace(points=V, cells=[("tetra", T + 0.5)]))
+    with pytest.raises(TypeError, match="not a mesh object"):
+        tetlap.io.from_mesh(types.SimpleNamespace(points=V))
+    with pytest.raises(TypeError):
+        tetlap.io.read(42)
+
+
+# ---- look-alikes ----------------------------------------------------------------------
+
+
+def test_duck_typed_objects(cube):
+    V, T = cube
+    as_list = V.tolist(), T.tolist()
+    for obj in (
+        types.SimpleNamespace(points=as_list[0], cells=[("tetra", as_list[1])]),
+        types.SimpleNamespace(points=V, cells=[types.SimpleNamespace(type="tetra", data=T)]),
+        types.SimpleNamespace(points=V, cells_dict={"tetra": T}),
+        types.SimpleNamespace(points=V, cells_dict={10: T}),  # a VTK cell type id
+        # legacy VTK layout: celltypes and a flat [k, i0, ..., k, ...] array
+        types.SimpleNamespace(points=V, celltypes=np.full(len(T), 10, dtype=np.uint8),
+                              cells=np.column_stack([np.full(len(T), 4), T]).ravel()),
+    ):
+        assert_same(cube, tetlap.io.from_mesh(obj))
+        assert_same(cube, tetlap.io.read(obj))
+
+
+def test_legacy_vtk_layout_with_mixed_cell_sizes(cube):
+    V, T = cube
+    flat = np.concatenate([[2, 0, 1], *(np.r_[4, t] for t in T), [3, 0, 1, 2]])
+    obj = types.SimpleNamespace(points=V, celltypes=np.r_[3, np.full(len(T), 10), 5],
+                                cells=flat)
+    with pytest.warns(UserWarning, match=r"\['line', 'triangle'\]"):
+        assert_same(cube, tetlap.io.from_mesh(obj))
+
+
+# ---- pyvista --------------------------------------------------------------------------
+
+
+def test_pyvista_roundtrip_tets_and_triangles(cube):
+    pytest.importorskip("pyvista")
+    V, T = cube
+    assert_same(cube, tetlap.io.from_mesh(tetlap.io.to_pyvista(V, T)))
+    F = T[:, :3]
+    grid = tetlap.io.to_pyvista(V[:, :2], F)  # 2-D points get z = 0
+    V2, F2 = tetlap.io.from_mesh(grid)
+    np.testing.assert_array_equal(V2[:, :2], V[:, :2])
+    assert (V2[:, 2] == 0).all()
+    np.testing.assert_array_equal(F2, F)
+
+
+def test_pyvista_grid_built_by_pyvista_and_surfaces():
+    pv = pytest.importorskip("pyvista")
+    V, T = tetlap.meshes.cube(2)
+    cells = {pv.CellType.TETRA: T, pv.CellType.TRIANGLE: T[:3, :3], pv.CellType.LINE: T[:2, :2]}
+    grid = pv.UnstructuredGrid(cells, V)
+    with pytest.warns(UserWarning, match=r"\['line', 'triangle'\]"):
+        assert_same((V, T), tetlap.io.from_mesh(grid))
+    sphere = pv.Sphere()  # PolyData: cast to a grid of triangles
+    V2, F = tetlap.io.from_mesh(sphere)
+    assert F.shape == (sphere.n_cells, 3)
+    np.testing.assert_array_equal(F, sphere.faces.reshape(-1, 4)[:, 1:])
+    hexes = pv.ImageData(dimensions=(3, 3, 3)).cast_to_unstructured_grid()
+    with pytest.raises(tetlap.ShapeError, match="no tetra cells, found (voxel|hexahedron)"):
+        tetlap.io.from_mesh(hexes)
+    mixed = pv.UnstructuredGrid({pv.CellType.TETRA: T, pv.CellType.HEXAHEDRON: HEX}, V)
+    with pytest.raises(tetlap.ShapeError, match="mixed with"):
+        tetlap.io.from_mesh(mixed)
+
+
+def test_to_pyvista_data_copies_and_errors(cube):
+    pytest.importorskip("pyvista")
+    V, T = cube
+    V0, T0 = V.copy(), T.copy()
+    masses = tetlap.mass(V, T, "circumcentric").diagonal()
+    W = tetlap.tet_contributions(V, T, "dual")
+    grid = tetlap.io.to_pyvista(V, T, point_data={"dual_mass": masses},
+                                cell_data={"min_weight": W.min(axis=1), "w": W})
+    np.testing.assert_array_equal(grid.point_data["dual_mass"], masses)
+    np.testing.assert_array_equal(grid.cell_data["w"], W)
+    grid.points[:] = 0.0
+    grid.point_data["dual_mass"][:] = 0.0
+    np.testing.assert_array_equal(V, V0)
+    np.testing.assert_array_equal(T, T0)
+    assert masses.any()
+    with pytest.raises(tetlap.ShapeError, match=r"point_data\['m'\]"):
+        tetlap.io.to_pyvista(V, T, point_data={"m": masses[:-1]})
+    with pytest.raises(tetlap.ShapeError, match=r"cell_data\['c'\]"):
+        tetlap.io.to_pyvista(V, T, cell_data={"c": masses})
+    with pytest.raises(tetlap.ShapeError, match="3-D"):
+        tetlap.io.to_pyvista(np.column_stack([V, V[:, 0]]), T)
+    with pytest.raises(tetlap.IndexRangeError, match="element 1 refers to vertex 99") as e:
+        tetlap.io.to_pyvista(V, [[0, 1, 2, 3], [0, 1, 2, 99]])
+    assert e.value.element == 1 and e.value.index == 99
+    with pytest.raises(tetlap.DtypeError):
+        tetlap.io.to_pyvista(V, T.astype(float))
+
+
+def test_edges_to_pyvista_shows_negative_weights():
+    pytest.importorskip("pyvista")
+    V, T = tetlap.meshes.ball(300, seed=0)
+    edges, w = tetlap.edge_weights(V, T, "dual")
+    negative = w < 0
+    assert negative.any()
+    lines = tetlap.io.edges_to_pyvista(V, edges[negative], w[negative], name="weight")
+    assert lines.n_lines == negative.sum()
+    np.testing.assert_array_equal(lines.lines.reshape(-1, 3)[:, 1:], edges[negative])
+    np.testing.assert_array_equal(lines.cell_data["weight"], w[negative])
+    with pytest.raises(tetlap.ShapeError, match="values"):
+        tetlap.io.edges_to_pyvista(V, edges, w[:-1])
+    with pytest.raises(tetlap.IndexRangeError, match="edge 0"):
+        tetlap.io.edges_to_pyvista(V, [[0, len(V)]])
+
+
+# ---- files ----------------------------------------------------------------------------
+
+
+def test_write_refuses_float_T_and_checks_data_lengths(cube, tmp_path):
+    V, T = cube
+    with pytest.raises(tetlap.DtypeError, match="integer"):
+        tetlap.io.write(tmp_path / "a.vtu", V, T + 0.7)
+    with pytest.raises(tetlap.ShapeError, match=r"point_data\['p'\]"):
+        tetlap.io.write(tmp_path / "a.vtu", V, T, point_data={"p": np.zeros(len(V) + 1)})
+    with pytest.raises(tetlap.ShapeError, match=r"cell_data\['c'\]"):
+        tetlap.io.write(tmp_path / "a.vtu", V, T, cell_data={"c": np.zeros(len(T) - 1)})
+    with pytest.raises(tetlap.IndexRangeError):
+        tetlap.io.write(tmp_path / "a.vtu", V, T + len(V))
+    with pytest.raises(tetlap.MeshFileError, match="a.unknown-format"):
+        tetlap.io.write(tmp_path / "a.unknown-format", V, T)
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("name", ["m.vtu", "m.vtk", "m.mesh", "m.msh"])
+def test_write_read_roundtrip_tets_and_triangles(cube, tmp_path, name):
+    V, T = cube
+    path = tmp_path / name
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # meshio's gmsh writer warns about tags
+        tetlap.io.write(path, V, T, point_data={"m": np.arange(len(V), dtype=float)},
+                        cell_data={"id": np.arange(len(T))})
+    assert_same(cube, tetlap.io.read(path))
+    tetlap.io.write(path, V, T[:, :3])
+    assert_same((V, T[:, :3]), tetlap.io.read(path))
+
+
+def test_read_never_exits_on_malformed_files(tmp_path):
+    files = {
+        "bad.vtu": "<?xml version='1.0'?>\n<VTKFile type='UnstructuredGrid'><Garbage/></VTKFile>\n",
+        "bad.mesh": "MeshVersionFormatted 1\nDimension 3\nFoobar\n3\n",
+        # a PolyData legacy file: meshio reads unstructured grids only
+        "poly.vtk": ("# vtk DataFile Version 4.2\nsurface\nASCII\nDATASET POLYDATA\n"
+                     "POINTS 3 float\n0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n3 0 1 2\n"),
+        "short.vtk": ("# vtk DataFile Version 4.2\nx\nASCII\nDATASET UNSTRUCTURED_GRID\n"
+                      "POINTS 3 float\n0 0 0 1 0 0\n"),
+        "noise.msh": "this is not a mesh\n",
+        "empty.vtu": "",
+    }
+    for name, text in files.items():
+        path = tmp_path / name
+        path.write_text(text)
+        try:
+            with pytest.raises(tetlap.MeshFileError, match=name.replace(".", r"\.")):
+                tetlap.io.read(path)
+        except SystemExit:  # pragma: no cover - the bug this test is for
+            pytest.fail(f"SystemExit escaped io.read({name})")
+    with pytest.raises(tetlap.MeshFileError, match="Unknown main tag 'Garbage'"):
+        tetlap.io.read(tmp_path / "bad.vtu")
+    with pytest.raises(FileNotFoundError):
+        tetlap.io.read(tmp_path / "missing.vtu")
+
+
+def test_read_keeps_stdout_clean(cube, tmp_path, capfd):
+    V, T = cube
+    path = tmp_path / "m.msh"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        meshio.Mesh(V, [("tetra", T)]).write(path, file_format="gmsh22", binary=False)
+    capfd.readouterr()
+    assert_same(cube, tetlap.io.read(path))  # meshio itself prints a blank line here
+    assert capfd.readouterr().out == ""
+
+
+def test_read_of_a_mesh_object_is_from_mesh(cube):
+    V, T = cube
+    mesh = meshio.Mesh(V, [("tetra", T), ("triangle", T[:2, :3])])
+    with pytest.warns(UserWarning, match="triangle"):
+        assert_same(cube, tetlap.io.read(mesh))
+
+
+def test_docstring_examples_run(tmp_path, monkeypatch):
+    pytest.importorskip("pyvista")
+    monkeypatch.chdir(tmp_path)
+    result = doctest.testmod(tetlap.io, optionflags=doctest.ELLIPSIS)
+    assert result.attempted > 10 and result.failed == 0
