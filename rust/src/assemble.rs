@@ -155,7 +155,28 @@ pub(crate) fn assemble<S: Simplex>(
     let n = layout.n_vertices();
     let laplacian = lap.map(|data| Csr { n, indptr: rows.indptr.clone(), indices: indices.clone(), data });
     let mass = lumped.or_else(|| fem.map(|data| Mass::Consistent(Csr { n, indptr: rows.indptr, indices, data })));
+    if let Some(l) = &laplacian {
+        finite_rows(&l.indptr, &l.data)?;
+    }
+    match &mass {
+        Some(Mass::Lumped(m)) => finite_rows(&(0..=n).collect::<Vec<_>>(), m)?,
+        Some(Mass::Consistent(m)) => finite_rows(&m.indptr, &m.data)?,
+        None => {}
+    }
     Ok((laplacian, mass))
+}
+
+/// [`crate::Error::SumOverflow`] for the first row (user order) of `data` (split at
+/// `indptr`) with a value that is not finite. Every element's own values are finite by
+/// then, so such a value can only be a sum that left the `f64` range.
+pub(crate) fn finite_rows(indptr: &[usize], data: &[f64]) -> Result<()> {
+    match data.par_iter().position_first(|x| !x.is_finite()) {
+        None => Ok(()),
+        Some(k) => {
+            let vertex = indptr.partition_point(|&p| p <= k) - 1;
+            Err(crate::Error::SumOverflow { vertex })
+        }
+    }
 }
 
 /// Laplacian values on the pattern, for all rows (`rows = None`) or the listed internal

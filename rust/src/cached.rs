@@ -1,7 +1,7 @@
 //! A mesh that keeps its topology: re-assembly without the symbolic step, and updates that
 //! recompute only what moved (strong locality, paper Sec. 7.1).
 
-use crate::assemble::{laplacian_values, mass_values, with_threads};
+use crate::assemble::{finite_rows, laplacian_values, mass_values, with_threads};
 use crate::csr::{Csr, Mass};
 use crate::element::{boundary_mask, Element, Elements, Fault};
 use crate::error::{Error, Result};
@@ -12,6 +12,7 @@ use crate::pass::{chunked, fault_to_error, per_element, per_element_subset, CHUN
 use crate::simplex::{Simplex, Tet};
 use crate::topology::Topology;
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// One cached operator: its per-element values and its assembled values.
 #[derive(Debug, Clone)]
@@ -171,6 +172,7 @@ impl<S: Simplex> CachedMesh<S> {
             let mut w = vec![S::EdgeValues::default(); self.layout.cells.len()];
             per_element(&elements, opts, &mut w, |el| el.weights(kind))?;
             let values = laplacian_values::<S>(topo, &w, None, vec![0.0; topo.nnz()], opts)?;
+            finite_rows(topo.indptr(), &values)?;
             Ok(Cached { kind, per_element: w, values })
         })?;
         self.laplacians.push(cached);
@@ -199,6 +201,10 @@ impl<S: Simplex> CachedMesh<S> {
             let mut m = vec![S::CornerValues::default(); self.layout.cells.len()];
             per_element(&elements, opts, &mut m, |el| el.corner_mass(kind))?;
             let values = mass_values::<S>(topo, kind, &m, None, vec![], opts)?;
+            match kind {
+                MassKind::Fem => finite_rows(topo.indptr(), &values)?,
+                _ => finite_vertices(&values)?,
+            }
             Ok(Cached { kind, per_element: m, values })
         })?;
         self.masses.push(cached);
@@ -316,24 +322,52 @@ impl<S: Simplex> CachedMesh<S> {
             let m = recompute(&new, opts, &listed, &self.masses, |el, kind| el.corner_mass(kind))?;
             Ok((l, m))
         })?;
-        // Nothing failed: commit. (The sums below only poll the cancel flag of a full
-        // refresh; a cancelled commit would leave stale values, so it runs without one.)
+        // Nothing failed: commit, keeping what is overwritten so that a sum that overflows
+        // can be undone. (The sums run without the cancel flag: a commit is not cut short.)
         let (topo, all) = (&self.topology, (!full).then_some(&rows[..]));
         let only = (!full).then_some(&listed[..]);
         let commit_opts = Options { cancel: None, ..self.opts.clone() };
-        with_threads::<S, _>(&commit_opts, || {
+        let spans: Vec<std::ops::Range<usize>> = rows
+            .iter()
+            .map(|&v| {
+                let u = topo.vertex_of()[v as usize] as usize;
+                topo.indptr()[u]..topo.indptr()[u + 1]
+            })
+            .collect();
+        let vertex_spans: Vec<std::ops::Range<usize>> =
+            rows.iter().map(|&v| topo.vertex_of()[v as usize] as usize).map(|u| u..u + 1).collect();
+        let mut undo_l = Vec::new();
+        let mut undo_m = Vec::new();
+        let result = with_threads::<S, _>(&commit_opts, || {
             for (cached, new) in self.laplacians.iter_mut().zip(laplacians) {
+                undo_l.push(Saved::take(cached, only, &spans));
                 commit(&mut cached.per_element, only, new);
                 let values = std::mem::take(&mut cached.values);
                 cached.values = laplacian_values::<S>(topo, &cached.per_element, all, values, &commit_opts)?;
+                check_rows(topo, &cached.values, full, &spans)?;
             }
             for (cached, new) in self.masses.iter_mut().zip(masses) {
+                let spans = if cached.kind == MassKind::Fem { &spans } else { &vertex_spans };
+                undo_m.push((Saved::take(cached, only, spans), spans));
                 commit(&mut cached.per_element, only, new);
                 let values = std::mem::take(&mut cached.values);
                 cached.values = mass_values::<S>(topo, cached.kind, &cached.per_element, all, values, &commit_opts)?;
+                match cached.kind {
+                    MassKind::Fem => check_rows(topo, &cached.values, full, spans)?,
+                    _ => finite_vertices(&cached.values)?,
+                }
             }
             Ok(())
-        })?;
+        });
+        if let Err(e) = result {
+            for (cached, saved) in self.laplacians.iter_mut().zip(undo_l) {
+                saved.restore(cached, only, &spans);
+            }
+            for (cached, (saved, spans)) in self.masses.iter_mut().zip(undo_m) {
+                saved.restore(cached, only, spans);
+            }
+            return Err(e);
+        }
         Ok(Update {
             moved_vertices: moved.len(),
             recomputed_elements: if full { self.layout.cells.len() } else { listed.len() },
@@ -374,6 +408,67 @@ impl<S: Simplex> CachedMesh<S> {
         })?;
         fault_to_error(elements, self.opts.degenerate, fault)?;
         Ok((l_new, m_new))
+    }
+}
+
+/// What a commit overwrites in one cached operator: everything (a full refresh: moved out,
+/// not copied) or the listed elements' values and the data of the recomputed rows.
+enum Saved<T> {
+    Full(Vec<T>, Vec<f64>),
+    Partial(Vec<T>, Vec<f64>),
+}
+
+impl<T: Copy> Saved<T> {
+    /// Takes (full) or copies (partial) what committing `listed` overwrites in `cached`.
+    fn take<K>(cached: &mut Cached<K, T>, listed: Option<&[u32]>, spans: &[Range<usize>]) -> Self {
+        match listed {
+            None => Saved::Full(std::mem::take(&mut cached.per_element), std::mem::take(&mut cached.values)),
+            Some(listed) => Saved::Partial(
+                listed.iter().map(|&t| cached.per_element[t as usize]).collect(),
+                spans.iter().flat_map(|r| cached.values[r.clone()].iter().copied()).collect(),
+            ),
+        }
+    }
+
+    /// Puts back what [`Saved::take`] saved.
+    fn restore<K>(self, cached: &mut Cached<K, T>, listed: Option<&[u32]>, spans: &[Range<usize>]) {
+        match self {
+            Saved::Full(per_element, values) => {
+                cached.per_element = per_element;
+                cached.values = values;
+            }
+            Saved::Partial(per_element, values) => {
+                for (&t, v) in listed.unwrap_or_default().iter().zip(per_element) {
+                    cached.per_element[t as usize] = v;
+                }
+                let slots = spans.iter().flat_map(|r| r.clone());
+                for (k, v) in slots.zip(values) {
+                    cached.values[k] = v;
+                }
+            }
+        }
+    }
+}
+
+/// [`Error::SumOverflow`] for the first recomputed row with a value that is not finite.
+fn check_rows(topo: &Topology, values: &[f64], full: bool, spans: &[std::ops::Range<usize>]) -> Result<()> {
+    if full {
+        return finite_rows(topo.indptr(), values);
+    }
+    for span in spans {
+        if values[span.clone()].iter().any(|x| !x.is_finite()) {
+            let vertex = topo.indptr().partition_point(|&p| p <= span.start) - 1;
+            return Err(Error::SumOverflow { vertex });
+        }
+    }
+    Ok(())
+}
+
+/// [`Error::SumOverflow`] for the first vertex whose lumped mass is not finite.
+fn finite_vertices(values: &[f64]) -> Result<()> {
+    match values.iter().position(|x| !x.is_finite()) {
+        Some(vertex) => Err(Error::SumOverflow { vertex }),
+        None => Ok(()),
     }
 }
 

@@ -166,8 +166,15 @@ fn witness(l: &Csr, s: &[u32], shift: f64) -> Option<f64> {
 /// ```
 /// use tetlap::{laplacian, negative_semidefinite, LaplacianKind, Options, Semidefinite, TetMesh};
 /// let points = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-/// let l = laplacian(&TetMesh::new(&points, 3, &[[0, 1, 2, 3]])?, LaplacianKind::Dual, &Options::default())?;
-/// assert_eq!(negative_semidefinite(&l, 1e-12, &Options::default())?, Semidefinite::NonNegativeWeights);
+/// let mesh = TetMesh::new(&points, 3, &[[0, 1, 2, 3]])?;
+/// let opts = Options::default();
+/// // the primal of the corner tet has weights 1/6 and 0: a graph Laplacian
+/// let primal = laplacian(&mesh, LaplacianKind::Primal, &opts)?;
+/// assert_eq!(negative_semidefinite(&primal, 1e-12, &opts)?, Semidefinite::NonNegativeWeights);
+/// // its dual has negative weights on the slanted face, covered by the positive ones
+/// let dual = laplacian(&mesh, LaplacianKind::Dual, &opts)?;
+/// let certified = negative_semidefinite(&dual, 1e-12, &opts)?;
+/// assert!(matches!(certified, Semidefinite::LocalCertificate { groups: 1, .. }));
 /// # Ok::<(), tetlap::Error>(())
 /// ```
 pub fn negative_semidefinite(l: &Csr, tol: f64, opts: &Options) -> Result<Semidefinite> {

@@ -64,9 +64,10 @@ impl<S: Simplex> Element<S> {
     }
 
     /// The element's corner masses for a lumped `kind`; for [`MassKind::Fem`] its measure
-    /// in every slot.
+    /// in every slot. A fault also when the measure is not a normal `f64` in the caller's
+    /// units (it underflows or overflows: masses would be silently zero or infinite).
     pub fn corner_mass(&self, kind: MassKind) -> Result<S::CornerValues, Fault> {
-        if S::is_degenerate(&self.local) {
+        if S::is_degenerate(&self.local) || !S::measure(&self.local).is_normal() {
             return Err(Fault);
         }
         finite(match kind {
@@ -76,13 +77,15 @@ impl<S: Simplex> Element<S> {
         })
     }
 
-    /// Weights and corner masses (the dual, if both need it, is computed once).
+    /// Weights and corner masses, each with its own fault (the dual, if both need it, is
+    /// computed once): an element that fails for one output is dropped from that output
+    /// only, exactly as when the output is computed alone.
     pub fn weights_and_mass(
         &self,
         lap: LaplacianKind,
         mass: MassKind,
-    ) -> Result<(S::EdgeValues, S::CornerValues), Fault> {
-        Ok((self.weights(lap)?, self.corner_mass(mass)?))
+    ) -> (Result<S::EdgeValues, Fault>, Result<S::CornerValues, Fault>) {
+        (self.weights(lap), self.corner_mass(mass))
     }
 }
 

@@ -33,6 +33,9 @@ pub enum Error {
     Degenerate { element: usize },
     /// An element's contribution overflows `f64` (nearly degenerate, or huge coordinates).
     NonFiniteResult { element: usize },
+    /// The entries of a row (or the masses at a vertex) sum beyond the `f64` range,
+    /// although every element's own values are finite (coordinates too large).
+    SumOverflow { vertex: usize },
     /// The affine parameter of [`crate::LaplacianKind::Affine`] lies outside `[0, 1]`.
     AffineParameter { t: f64 },
     /// [`crate::Options::threads`] is 0 or above [`crate::max_threads`].
@@ -100,6 +103,11 @@ impl fmt::Display for Error {
                 "element {element}: its contribution is not finite in double precision \
                  (a nearly degenerate element, or coordinates so large that its volume \
                  overflows); Degenerate::Skip drops it"
+            ),
+            Error::SumOverflow { vertex } => write!(
+                f,
+                "the values at vertex {vertex} sum beyond the f64 range (coordinates too large \
+                 for double precision; scale the mesh down)"
             ),
             Error::AffineParameter { t } => {
                 write!(f, "LaplacianKind::Affine(t) needs t in [0, 1], got {t}")

@@ -111,7 +111,7 @@ pub fn local_tet(x: [&[f64]; 4], scratch: &mut [f64]) -> LocalTet {
                 }
             }
         }
-        let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+        let norm = norm(v);
         r[kk][kk] = norm;
         if norm > 0.0 {
             v.iter_mut().for_each(|a| *a /= norm);
@@ -137,6 +137,24 @@ pub struct LocalTri {
     pub scale: f64,
 }
 
+/// Below this sum of squares a norm is recomputed with the largest component divided out
+/// (`2^-900`): squares of components below ~1e-154 would underflow and lose digits.
+const TINY_SQUARE: f64 = f64::from_bits(((1023 - 900) as u64) << 52);
+
+/// The Euclidean norm of `v`, without underflow: the plain sum of squares, or, when that is
+/// tiny, the sum of squares of `v / max|v_i|` times `max|v_i|`.
+pub(crate) fn norm(v: &[f64]) -> f64 {
+    let squares: f64 = v.iter().map(|a| a * a).sum();
+    if squares >= TINY_SQUARE {
+        return squares.sqrt();
+    }
+    let m = v.iter().fold(0.0f64, |m, a| m.max(a.abs()));
+    if m == 0.0 {
+        return 0.0;
+    }
+    m * v.iter().map(|a| (a / m) * (a / m)).sum::<f64>().sqrt()
+}
+
 /// Edge vectors of a triangle in R^d (`d >= 2`) in its own plane, scaled like
 /// [`local_tet`] (a QR factorisation of the 2 x d edge matrix; no scratch needed).
 pub fn local_tri(x: [&[f64]; 3]) -> LocalTri {
@@ -154,21 +172,44 @@ pub fn local_tri(x: [&[f64]; 3]) -> LocalTri {
     // R of the QR factorisation of the two edges, without storing q: with r00 = |e1|,
     // r01 = e1.e2 / |e1|, r11 = |e2 - (e1.e2 / |e1|^2) e1| (twice for stability).
     let dot = |a: usize, b: usize| (0..d).map(|c| diff(a, c) * diff(b, c)).sum::<f64>();
-    let r00 = dot(1, 1).sqrt();
-    if r00 == 0.0 {
-        return LocalTri { edges: [DVec2::ZERO, DVec2::new(dot(2, 2).sqrt(), 0.0)], scale };
+    if dot(1, 1) < TINY_SQUARE || dot(2, 2) < TINY_SQUARE {
+        return needle_tri(d, &diff, scale);
     }
+    let r00 = dot(1, 1).sqrt();
     let proj = dot(1, 2) / r00;
     let residual = |c: usize| diff(2, c) - proj / r00 * diff(1, c);
     let fix = (0..d).map(|c| residual(c) * diff(1, c)).sum::<f64>() / r00;
-    let r11 = (0..d)
+    let r11_squared = (0..d)
         .map(|c| {
             let v = residual(c) - fix / r00 * diff(1, c);
             v * v
         })
-        .sum::<f64>()
-        .sqrt();
+        .sum::<f64>();
+    if r11_squared < TINY_SQUARE {
+        return needle_tri(d, &diff, scale);
+    }
+    let r11 = r11_squared.sqrt();
     LocalTri { edges: [DVec2::new(r00, 0.0), DVec2::new(proj + fix, r11)], scale }
+}
+
+/// [`local_tri`]'s QR for a triangle with tiny edges or height, through unit vectors and
+/// scaled norms (no squares of tiny components).
+fn needle_tri(d: usize, diff: &impl Fn(usize, usize) -> f64, scale: f64) -> LocalTri {
+    let e1: Vec<f64> = (0..d).map(|c| diff(1, c)).collect();
+    let e2: Vec<f64> = (0..d).map(|c| diff(2, c)).collect();
+    let r00 = norm(&e1);
+    if r00 == 0.0 {
+        return LocalTri { edges: [DVec2::ZERO, DVec2::new(norm(&e2), 0.0)], scale };
+    }
+    let q: Vec<f64> = e1.iter().map(|a| a / r00).collect();
+    let mut r01 = 0.0;
+    let mut residual = e2;
+    for _pass in 0..2 {
+        let proj: f64 = q.iter().zip(&residual).map(|(a, b)| a * b).sum();
+        r01 += proj;
+        residual.iter_mut().zip(&q).for_each(|(v, qc)| *v -= proj * qc);
+    }
+    LocalTri { edges: [DVec2::new(r00, 0.0), DVec2::new(r01, norm(&residual))], scale }
 }
 
 #[cfg(test)]

@@ -78,22 +78,24 @@ pub(crate) fn per_element<S: Simplex, T: Default + Send>(
     fault_to_error(elements, opts.degenerate, fault)
 }
 
-/// `f` of every element into two outputs (weights and corner masses in one pass).
+/// `f` of every element into two outputs (weights and corner masses in one pass); each
+/// output gets the default for an element that fails for it.
 pub(crate) fn per_element_pair<S: Simplex, A: Default + Send, B: Default + Send>(
     elements: &Elements<S>,
     opts: &Options,
     a: &mut [A],
     b: &mut [B],
-    f: impl Fn(&Element<S>) -> std::result::Result<(A, B), Fault> + Sync,
+    f: impl Fn(&Element<S>) -> (std::result::Result<A, Fault>, std::result::Result<B, Fault>) + Sync,
 ) -> Result<()> {
     let chunks = a.par_chunks_mut(CHUNK).zip(b.par_chunks_mut(CHUNK));
     let fault = chunked(elements, opts, chunks, |c, (a, b), scratch, faults| {
         for (k, (x, y)) in a.iter_mut().zip(b.iter_mut()).enumerate() {
             let t = c * CHUNK + k;
-            (*x, *y) = f(&elements.get(t, scratch)).unwrap_or_else(|_| {
+            let (u, v) = f(&elements.get(t, scratch));
+            if u.is_err() || v.is_err() {
                 faults.record(elements, t);
-                Default::default()
-            });
+            }
+            (*x, *y) = (u.unwrap_or_default(), v.unwrap_or_default());
         }
     })?;
     fault_to_error(elements, opts.degenerate, fault)

@@ -95,6 +95,11 @@ impl Topology {
         Ok(Topology { n, corners, corner_slots, diagonal, vertex_of: vertex_of.to_vec(), indptr, indices })
     }
 
+    /// Internal vertex -> user vertex (row of the output).
+    pub(crate) fn vertex_of(&self) -> &[u32] {
+        &self.vertex_of
+    }
+
     /// Number of vertices (rows and columns).
     pub fn n(&self) -> usize {
         self.n

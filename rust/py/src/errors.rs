@@ -113,6 +113,15 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             ),
             &[("element", i(element))],
         ),
+        Error::SumOverflow { vertex } => raise(
+            py,
+            &c.non_finite,
+            format!(
+                "the values at vertex {vertex} sum beyond the float64 range (coordinates too large \
+                 for double precision; scale the mesh down)"
+            ),
+            &[("vertex", i(vertex))],
+        ),
         Error::AffineParameter { t } => {
             raise(py, &c.option, format!("the affine parameter t must lie in [0, 1], got {t}"), &[])
         }

@@ -5,6 +5,7 @@
 //! Sign convention (paper Eq. 1): a weight `w_ij` is the off-diagonal `L[i, j]`; positive on
 //! well-shaped tets.
 
+mod careful;
 mod centers;
 mod dual;
 mod mass;

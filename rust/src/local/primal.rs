@@ -8,7 +8,9 @@ use crate::geometry::LocalTet;
 ///
 /// Computed as minus the P1 stiffness `Vol * grad(lambda_a) . grad(lambda_b)`
 /// `= -(n_a . n_b) / (6 |det|)`, with `n_a` the (unnormalised) face normals. Independent of
-/// the tet's orientation. Infinite or NaN for a degenerate tet (the caller checks).
+/// the tet's orientation. Infinite or NaN for a degenerate tet (the caller checks). A tet
+/// with faces too small for these products (a needle) goes through cotangents of unit
+/// vectors instead, `|x_k - x_l| cot(theta_kl) / 6`, with the same precision.
 ///
 /// ```
 /// // The corner tet: the three edges at the right-angled corner get 1/6, the others 0.
@@ -19,6 +21,9 @@ use crate::geometry::LocalTet;
 /// ```
 pub fn primal_weights(t: &LocalTet) -> [f64; 6] {
     let f = Frame::new(t);
+    if super::careful::is_extreme(&f) {
+        return super::careful::primal_weights(t);
+    }
     let k = -t.scale / (6.0 * f.det.abs());
     EDGES.map(|(a, b)| f.normals[a].dot(f.normals[b]) * k)
 }

@@ -40,6 +40,9 @@ pub fn tri_area(t: &LocalTri) -> f64 {
 /// assert!((w[0] - 0.5).abs() < 1e-15 && w[2].abs() < 1e-15); // edge (1,2) faces the right angle
 /// ```
 pub fn cotan_weights(t: &LocalTri) -> [f64; 3] {
+    if is_extreme(t) {
+        return careful(t).0;
+    }
     let x = corners(t);
     let d = det(t).abs();
     std::array::from_fn(|e| {
@@ -53,6 +56,9 @@ pub fn cotan_weights(t: &LocalTri) -> [f64; 3] {
 /// areas `(weights, cell_areas)` of its corners (each the two pieces
 /// `(x_i, c_ij, c_ijk)` at `i`; they sum to the triangle's area).
 pub fn tri_dual(t: &LocalTri) -> ([f64; 3], [f64; 3]) {
+    if is_extreme(t) {
+        return careful(t);
+    }
     let x = corners(t);
     let (a, b) = (t.edges[0], t.edges[1]);
     // circumcenter: c . a = |a|^2 / 2, c . b = |b|^2 / 2
@@ -72,6 +78,47 @@ pub fn tri_dual(t: &LocalTri) -> ([f64; 3], [f64; 3]) {
     }
     let s2 = t.scale * t.scale;
     (weights, areas.map(|v| v * s2))
+}
+
+/// Below this squared edge length (in the normalised frame, `2^-600`) the direct formulas
+/// can underflow.
+const SMALL: f64 = f64::from_bits(((1023 - 600) as u64) << 52);
+
+/// Whether an edge is short enough for the direct formulas to underflow.
+fn is_extreme(t: &LocalTri) -> bool {
+    let x = corners(t);
+    TRI_EDGES.iter().any(|&(i, j)| (x[i] - x[j]).length_squared() < SMALL)
+}
+
+/// Unit vector and length of `v` without squaring tiny components.
+fn unit(v: DVec2) -> (DVec2, f64) {
+    let m = v.abs().max_element();
+    if m == 0.0 {
+        return (DVec2::ZERO, 0.0);
+    }
+    let u = v / m;
+    let len = u.length();
+    (u / len, m * len)
+}
+
+/// Cotan weights `cot(theta_k) / 2` and Voronoi areas `sum_j |ij|^2 w_ij / 4` of a
+/// triangle with tiny edges, from unit vectors (the two routes coincide here).
+fn careful(t: &LocalTri) -> ([f64; 3], [f64; 3]) {
+    let x = corners(t);
+    let weights: [f64; 3] = std::array::from_fn(|e| {
+        let ((i, j), k) = (TRI_EDGES[e], OPPOSITE_CORNER[e]);
+        let (u, v) = (unit(x[i] - x[k]).0, unit(x[j] - x[k]).0);
+        u.dot(v) / u.perp_dot(v).abs() / 2.0
+    });
+    let mut areas = [0.0; 3];
+    for (e, &(i, j)) in TRI_EDGES.iter().enumerate() {
+        let len = unit(x[i] - x[j]).1;
+        let piece = len * (len * weights[e]) / 4.0;
+        areas[i] += piece;
+        areas[j] += piece;
+    }
+    let s2 = t.scale * t.scale;
+    (weights, areas.map(|a| a * s2))
 }
 
 #[cfg(test)]
@@ -99,6 +146,21 @@ mod tests {
             }
             let total: f64 = areas.iter().sum();
             assert!((total - tri_area(&t)).abs() < 1e-13, "{areas:?} vs {}", tri_area(&t));
+        }
+    }
+
+    #[test]
+    fn needles_keep_their_cotangents() {
+        for h in [1e-10, 1e-100, 1e-160, 1e-200] {
+            // (0,0), (1,0), (0,h): the weight of edge 01 is cot(angle at 2) / 2 = h / 2
+            let t = tri([[0.0, 0.0], [1.0, 0.0], [0.0, h]]);
+            let w = cotan_weights(&t);
+            assert!((w[0] / (h / 2.0) - 1.0).abs() < 1e-13, "{h}: {w:?}");
+            assert!((w[1] - 1.0 / (2.0 * h)).abs() <= 1e-13 / h, "{h}: {w:?}");
+            let (d, areas) = tri_dual(&t);
+            assert!(d.iter().zip(&w).all(|(a, b)| (a - b).abs() <= 1e-13 * b.abs()), "{d:?} {w:?}");
+            let total: f64 = areas.iter().sum();
+            assert!((total / (h / 2.0) - 1.0).abs() < 1e-13, "{h}: {areas:?}");
         }
     }
 
