@@ -20,6 +20,7 @@ from ._core import MAX_THREADS
 from .mesh import Mesh, UpdateInfo
 from .properties import Report, check
 from .errors import (
+    CompatibilityError,
     DegenerateElementError,
     DtypeError,
     EmptyMeshError,
@@ -30,6 +31,7 @@ from .errors import (
     OptionError,
     RepeatedVertexError,
     ShapeError,
+    SolveError,
     TetlapError,
 )
 from .assembly import (
@@ -72,5 +74,7 @@ __all__ = [
     "DegenerateElementError",
     "OptionError",
     "MeshFileError",
+    "CompatibilityError",
+    "SolveError",
     "InternalError",
 ]

@@ -8,8 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 
+import numbers
+
+import scipy.sparse as sp
+
 from . import _meshobj
-from .errors import DtypeError, EmptyMeshError, IndexRangeError, ShapeError
+from .errors import (DtypeError, EmptyMeshError, IndexRangeError, NonFiniteError, OptionError,
+                     ShapeError)
 
 _I64_MAX = np.iinfo(np.int64).max
 
@@ -19,6 +24,11 @@ def _as_array(x, name: str) -> np.ndarray:
         hasattr(x, "__array__") or hasattr(x, "__len__")
     ):
         raise TypeError(f"{name} must be an array-like of numbers, got {type(x).__name__}")
+    if isinstance(x, np.ma.MaskedArray):
+        if np.ma.is_masked(x):
+            raise DtypeError(f"{name} is a masked array with masked entries: fill them first "
+                             "(x.filled(...)) or drop them")
+        x = x.data
     try:
         arr = np.asarray(x)
     except (ValueError, TypeError) as e:  # ragged nested lists and the like
@@ -89,3 +99,48 @@ def vertex_weights(w, n: int) -> np.ndarray | None:
     if arr.ndim != 1 or arr.shape[0] != n:
         raise ShapeError(f"weights must have shape ({n},), one per vertex, got {arr.shape}")
     return np.ascontiguousarray(arr, dtype=np.float64)
+
+
+def matrix(A, n: int | None = None, name: str = "L") -> sp.csr_array:
+    """``A`` as a new float64 ``(n, n)`` csr_array with summed duplicates and sorted
+    indices: a SciPy sparse array or matrix (or a dense 2-D array), square, finite."""
+    if not (sp.issparse(A) or isinstance(A, np.ndarray)):
+        raise TypeError(f"{name} must be a SciPy sparse array or matrix, got {type(A).__name__}")
+    if isinstance(A, np.ndarray) and A.dtype.kind not in "fiub":
+        raise DtypeError(f"{name} must hold real numbers, got dtype {A.dtype}")
+    if sp.issparse(A) and A.dtype.kind not in "fiub":
+        raise DtypeError(f"{name} must hold real numbers, got dtype {A.dtype}")
+    A = sp.csr_array(A, dtype=np.float64, copy=True)
+    if A.ndim != 2 or A.shape[0] != A.shape[1] or (n is not None and A.shape[0] != n):
+        expected = f"({n}, {n})" if n is not None else "square"
+        raise ShapeError(f"{name} has shape {A.shape}, expected {expected}")
+    A.sum_duplicates()
+    A.sort_indices()
+    bad = np.flatnonzero(~np.isfinite(A.data))
+    if bad.size:
+        row = int(np.searchsorted(A.indptr, bad[0], side="right") - 1)
+        raise NonFiniteError(f"{name} has a non-finite entry in row {row}", vertex=row)
+    return A
+
+
+def vector(x, n: int, name: str) -> np.ndarray:
+    """``x`` as a new finite float64 ``(n,)`` array."""
+    arr = _as_array(x, name)
+    if arr.dtype.kind not in "fiub":
+        raise DtypeError(f"{name} must hold real numbers, got dtype {arr.dtype}")
+    if arr.shape != (n,):
+        raise ShapeError(f"{name} must have shape ({n},), got {arr.shape}")
+    arr = np.array(arr, dtype=np.float64)
+    bad = np.flatnonzero(~np.isfinite(arr))
+    if bad.size:
+        raise NonFiniteError(f"{name}[{bad[0]}] is not finite ({arr[bad[0]]})", vertex=int(bad[0]))
+    return arr
+
+
+def vertex_index(v, n: int, name: str) -> int:
+    """``v`` (an option naming a vertex) as a vertex index in ``0..n``."""
+    if not isinstance(v, numbers.Integral) or isinstance(v, bool):
+        raise OptionError(f"{name} must be an integer vertex index, got {v!r}")
+    if not 0 <= v < n:
+        raise IndexRangeError(f"{name} = {v} is not a vertex index in 0..{n}", index=int(v))
+    return int(v)

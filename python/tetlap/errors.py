@@ -27,6 +27,8 @@ __all__ = [
     "DegenerateElementError",
     "OptionError",
     "MeshFileError",
+    "CompatibilityError",
+    "SolveError",
     "InternalError",
 ]
 
@@ -76,6 +78,15 @@ class OptionError(TetlapError):
 
 class MeshFileError(TetlapError):
     """A mesh file could not be read (unknown format, malformed content)."""
+
+
+class CompatibilityError(TetlapError):
+    """A pure Neumann problem whose data do not integrate to zero (no solution exists)."""
+
+
+class SolveError(TetlapError):
+    """A linear system or eigenproblem of :mod:`tetlap.solve` has no accurate solution
+    (singular, or too ill-conditioned): the message gives the relative residual."""
 
 
 class InternalError(TetlapError):

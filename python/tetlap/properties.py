@@ -21,6 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, assembly, diagnostics
+from ._interrupt import interruptible
 from .errors import OptionError, ShapeError
 
 __all__ = ["check", "Report", "NEGATIVE_TOL", "TOL", "NSD_RTOL", "DENSE_NSD_MAX", "SPARSE_NSD_MAX"]
@@ -117,18 +118,6 @@ def _fmt(value, template: str) -> str:
     return "" if value is None else template.format(value)
 
 
-def _canonical(L, n: int) -> sp.csr_array:
-    """``L`` as a new float64 csr_array with summed duplicates and sorted indices."""
-    if not (sp.issparse(L) or isinstance(L, np.ndarray)):
-        raise TypeError(f"L must be a SciPy sparse array or matrix, got {type(L).__name__}")
-    L = sp.csr_array(L, dtype=np.float64, copy=True)
-    if L.shape != (n, n):
-        raise ShapeError(f"L has shape {L.shape}, expected ({n}, {n})")
-    L.sum_duplicates()
-    L.sort_indices()
-    return L
-
-
 def _csr_args(A: sp.csr_array):
     return A.data, A.indices.astype(np.int64), A.indptr.astype(np.int64)
 
@@ -194,7 +183,7 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     if kind is not None and not (kind in ("primal", "dual") or (
             isinstance(kind, numbers.Real) and not isinstance(kind, bool) and 0 <= kind <= 1)):
         raise OptionError(f'kind must be None, "primal", "dual" or a float t in [0, 1], got {kind!r}')
-    L = _canonical(L, n)
+    L = _arrays.matrix(L, n)
     boundary = diagnostics.boundary_vertices(T, n)
     c = _core.check_operator(V, T, *_csr_args(L), boundary, float(negative_tol))
     notes: list[str] = []
@@ -237,7 +226,7 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
         notes=notes,
     )
     if M is not None:
-        M = _canonical(M, n)
+        M = _arrays.matrix(M, n, "M")
         lumped = np.asarray(M.sum(axis=1)).ravel()
         report.mass_min = float(lumped.min())
         report.mass_nonpositive = int((lumped[diagnostics.referenced_vertices(T, n)] <= 0).sum())
@@ -256,20 +245,11 @@ def _ldl_inertia(A: sp.csr_array, eps: float) -> int | None:
     eigenvalues of ``A`` below ``-eps``. None if the factorisation had to pivot off the
     diagonal. Runs on a helper thread (SuperLU releases the GIL), so Ctrl-C is answered
     at once; an interrupted factorisation finishes in the background and is dropped."""
-    import concurrent.futures
     from scipy.sparse.linalg import splu
 
     shifted = sp.csc_array(A + eps * sp.eye_array(A.shape[0]))
-    pool = concurrent.futures.ThreadPoolExecutor(max_workers=1)
-    job = pool.submit(splu, shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                      options={"SymmetricMode": True})
-    pool.shutdown(wait=False)
-    while True:
-        try:
-            lu = job.result(timeout=0.1)
-            break
-        except concurrent.futures.TimeoutError:
-            continue
+    lu = interruptible(splu, shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                       options={"SymmetricMode": True})
     if not np.array_equal(lu.perm_r, lu.perm_c):
         return None
     return int((lu.U.diagonal() < 0).sum())
@@ -286,7 +266,7 @@ def _nsd(L: sp.csr_array, V, T, scale: float, kind):
     tol = NSD_RTOL * scale
     A = -(L + L.T) / 2
     if n <= DENSE_NSD_MAX:
-        lam = float(np.linalg.eigvalsh(A.toarray())[0])
+        lam = float(interruptible(np.linalg.eigvalsh, A.toarray())[0])
         return lam >= -tol, lam, "dense eigenvalues"
     if kind in (None, "primal"):
         primal = assembly.laplacian(V, T, "primal", degenerate="skip")

@@ -4,6 +4,12 @@ Sign convention as everywhere in tetlap: ``L`` is the paper's Laplacian (``L[i, 
 -sum_j w_ij``), so ``-L`` is positive semidefinite for the primal; ``L f = b`` discretises
 ``Laplace(f) = b`` integrated over vertex cells.
 
+Every solver checks its input like the operators do (shapes, finiteness, index ranges:
+the :mod:`tetlap.errors` classes) and checks what it returns: a solution is finite and its
+relative residual ``|A x - b| / (|A| |x| + |b|)`` (infinity norms) is at most
+``RESIDUAL_TOL`` (1e-8), else :class:`tetlap.SolveError` says why; a component of the mesh
+without a constraint where one is needed is named before anything is solved.
+
 >>> import numpy as np, tetlap
 >>> V, T = tetlap.meshes.cube(4, jitter=0.2)
 >>> L = tetlap.laplacian(V, T, "dual")
@@ -15,14 +21,17 @@ True
 
 from __future__ import annotations
 
+import numbers
+import warnings
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 from scipy.sparse.linalg import eigsh, spsolve
 
 from . import _arrays, diagnostics
-from .errors import DtypeError, IndexRangeError, OptionError, ShapeError
-from .errors import TetlapError
+from .errors import (CompatibilityError, DegenerateElementError, DtypeError, IndexRangeError,
+                     OptionError, ShapeError, SolveError)
 
 __all__ = [
     "dirichlet",
@@ -32,11 +41,12 @@ __all__ = [
     "dual_boundary_areas",
     "fem_boundary_areas",
     "CompatibilityError",
+    "SolveError",
+    "RESIDUAL_TOL",
 ]
 
-
-class CompatibilityError(TetlapError):
-    """A pure Neumann problem whose data do not integrate to zero (no solution exists)."""
+#: Largest relative residual ``|A x - b|_inf / (|A|_inf |x|_inf + |b|_inf)`` accepted.
+RESIDUAL_TOL = 1e-8
 
 
 def _mask(fixed, n: int) -> np.ndarray:
@@ -48,7 +58,8 @@ def _mask(fixed, n: int) -> np.ndarray:
     if fixed.dtype.kind not in "iu":
         raise DtypeError("`fixed` must be a boolean mask or integer vertex indices")
     if fixed.size and (fixed.min() < 0 or fixed.max() >= n):
-        raise IndexRangeError(f"`fixed` holds indices outside 0..{n}")
+        bad = int(fixed.ravel()[np.argmax((fixed.ravel() < 0) | (fixed.ravel() >= n))])
+        raise IndexRangeError(f"`fixed` holds the index {bad}, outside 0..{n}", index=bad)
     mask = np.zeros(n, dtype=bool)
     mask[fixed.ravel()] = True
     return mask
@@ -60,16 +71,50 @@ def _values(values, fixed: np.ndarray) -> np.ndarray:
     if v.ndim == 0:
         out = np.zeros(n)
         out[fixed] = v
-        return out
-    if v.shape == (n,):
-        return np.where(fixed, v, 0.0)
-    if v.shape == (int(fixed.sum()),):
+    elif v.shape == (n,):
+        out = np.where(fixed, v, 0.0)
+    elif v.shape == (int(fixed.sum()),):
         out = np.zeros(n)
         out[fixed] = v
-        return out
-    raise ShapeError(
-        f"values must be a scalar, one per vertex ({n}) or one per fixed vertex "
-        f"({int(fixed.sum())}), got shape {v.shape}")
+    else:
+        raise ShapeError(
+            f"values must be a scalar, one per vertex ({n}) or one per fixed vertex "
+            f"({int(fixed.sum())}), got shape {v.shape}")
+    return _arrays.vector(out, n, "values")
+
+
+def _solve(A, b, what: str) -> np.ndarray:
+    """``spsolve(A, b)`` and the check of its residual (see :data:`RESIDUAL_TOL`)."""
+    A = sp.csc_array(A)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a singular matrix is reported below, once
+        x = spsolve(A, b)
+    x = np.atleast_1d(x)
+    if not np.isfinite(x).all():
+        raise SolveError(f"the {what} is singular (the solution is not finite)")
+    residual = np.abs(A @ x - b).max() if len(b) else 0.0
+    scale = abs(A).sum(axis=1).max() * np.abs(x).max() + np.abs(b).max() if len(b) else 1.0
+    if residual > RESIDUAL_TOL * max(scale, 1e-300):
+        raise SolveError(f"the {what} is singular or too ill-conditioned: relative residual "
+                         f"{residual / max(scale, 1e-300):.1e} (tolerance {RESIDUAL_TOL:g})")
+    return x
+
+
+def _gauge(gauge, n: int):
+    """``"mean"`` or a checked vertex index."""
+    if isinstance(gauge, str):
+        if gauge != "mean":
+            raise OptionError(f'gauge must be "mean" or a vertex index, got {gauge!r}')
+        return gauge
+    return _arrays.vertex_index(gauge, n, "gauge")
+
+
+def _components(L):
+    """Connected components of the graph of ``L`` and the referenced vertices (non-zero
+    rows)."""
+    referenced = np.asarray(abs(L).sum(axis=1)).ravel() > 0
+    _, labels = csgraph.connected_components(sp.csr_array(L != 0), directed=False)
+    return labels, referenced
 
 
 def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate") -> np.ndarray:
@@ -77,75 +122,104 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate") -> np.nd
 
     Parameters
     ----------
-    L : (n, n) sparse Laplacian.
-    fixed : (n,) bool mask or integer indices of the constrained vertices (at least one
-        per connected component, or the problem is singular).
-    values : scalar, (n,) (entries at free vertices ignored) or (n_fixed,) values.
-    rhs : optional (n,) right-hand side (``0``: the Laplace equation, i.e. minimising the
+    L : (n, n) SciPy sparse array or matrix
+        A Laplacian (any format; not modified).
+    fixed : (n,) bool mask or integer array of vertex indices
+        The constrained vertices: at least one in every connected component of the mesh
+        that has free vertices (else :class:`tetlap.SolveError` names the component).
+    values : float, (n,) or (n_fixed,) array-like
+        The values on the fixed vertices (entries of an (n,) array at free vertices are
+        ignored).
+    rhs : (n,) array-like, optional
+        The right-hand side (default 0: the Laplace equation, i.e. minimising the
         Dirichlet energy ``-f^T L f`` of Eq. 28 under the constraints).
-    method : ``"eliminate"`` solves the reduced system ``L_FF f_F = rhs_F - L_FB f_B``;
+    method : {"eliminate", "replace"}, default "eliminate"
+        ``"eliminate"`` solves the reduced system ``L_FF f_F = rhs_F - L_FB f_B``;
         ``"replace"`` replaces the rows of fixed vertices by identity rows (paper Sec. 6)
         and solves the full system. Both give the same solution (to rounding).
 
     Returns
     -------
-    f : (n,) float64, equal to ``values`` on fixed vertices.
+    f : (n,) float64 array
+        Equal to ``values`` on fixed vertices; unreferenced free vertices get 0.
+
+    Raises
+    ------
+    tetlap.SolveError
+        A component without a fixed vertex, or a system without an accurate solution.
     """
-    L = sp.csr_array(L, dtype=np.float64)
+    L = _arrays.matrix(L)
     n = L.shape[0]
     fixed = _mask(fixed, n)
     f = _values(values, fixed)
-    b = np.zeros(n) if rhs is None else np.asarray(rhs, dtype=np.float64).copy()
-    if b.shape != (n,):
-        raise ShapeError(f"rhs must have shape ({n},), got {b.shape}")
-    free = ~fixed
+    b = np.zeros(n) if rhs is None else _arrays.vector(rhs, n, "rhs")
+    if method not in ("eliminate", "replace"):
+        raise OptionError(f'method must be "eliminate" or "replace", got {method!r}')
+    labels, referenced = _components(L)
+    free = ~fixed & referenced
+    for c in np.unique(labels[free]):
+        if not (fixed & (labels == c)).any():
+            v = int(np.flatnonzero(free & (labels == c))[0])
+            raise SolveError(f"the component of vertex {v} has no fixed vertex: the Dirichlet "
+                             "problem is singular there (fix a vertex of it, or use neumann)")
+    lone = ~fixed & ~referenced
+    if (b[lone] != 0).any():
+        v = int(np.flatnonzero(lone & (b != 0))[0])
+        raise SolveError(f"vertex {v} belongs to no element but has rhs {b[v]:g} != 0")
     if not free.any():
         return f
     if method == "eliminate":
-        A = L[free][:, free]
-        f[free] = spsolve(sp.csc_array(A), b[free] - L[free][:, fixed] @ f[fixed])
-    elif method == "replace":
-        keep = sp.diags_array(free.astype(np.float64))
-        A = keep @ L + sp.diags_array(fixed.astype(np.float64))
-        b[fixed] = f[fixed]
-        f = spsolve(sp.csc_array(A), b)
+        f[free] = _solve(L[free][:, free], b[free] - L[free][:, fixed] @ f[fixed],
+                         "Dirichlet system")
     else:
-        raise OptionError(f'method must be "eliminate" or "replace", got {method!r}')
-    if not np.isfinite(f).all():
-        raise TetlapError("the Dirichlet system is singular: is every connected component "
-                          "of the mesh constrained somewhere?")
+        keep = sp.diags_array((~fixed).astype(np.float64))
+        A = keep @ L + sp.diags_array((fixed | lone).astype(np.float64))
+        b = b.copy()
+        b[fixed] = f[fixed]
+        f = _solve(A, b, "Dirichlet system")
     return f
-
-
-def _components(L):
-    referenced = np.asarray(abs(L).sum(axis=1)).ravel() > 0
-    _, labels = csgraph.connected_components(sp.csr_array(L != 0), directed=False)
-    return labels, referenced
 
 
 def neumann(L, g, rhs=None, *, gauge="mean", rtol: float = 1e-6) -> np.ndarray:
     """Solve the pure Neumann problem ``L f = rhs - g`` (paper Sec. 6, ``L f = -g``).
 
-    ``g`` (n,) is the integrated outward normal flux per vertex (zero at interior
-    vertices): for the dual Laplacian use :func:`dual_boundary_areas` (exact for linear
-    functions: dual cells at the boundary are closed by circumcentric pieces of the
-    boundary faces); for the primal, the natural (weak) boundary condition is
-    :func:`fem_boundary_areas` (the P1 boundary load). ``rhs`` (n,) is the integrated
-    source (e.g. ``M @ s`` for ``Laplace(f) = s``).
+    Parameters
+    ----------
+    L : (n, n) SciPy sparse array or matrix
+        A Laplacian (not modified).
+    g : (n,) array-like
+        The integrated outward normal flux per vertex (zero at interior vertices): for the
+        dual Laplacian use :func:`dual_boundary_areas` (exact for linear functions: dual
+        cells at the boundary are closed by circumcentric pieces of the boundary faces);
+        for the primal, the natural (weak) boundary condition is :func:`fem_boundary_areas`
+        (the P1 boundary load).
+    rhs : (n,) array-like, optional
+        The integrated source (e.g. ``M @ s`` for ``Laplace(f) = s``).
+    gauge : "mean" or int, default "mean"
+        The constant functions of every connected component are in the null space; the
+        solution is fixed by zero mean per component, or ``f[gauge] = 0`` in the component
+        of that vertex (zero mean elsewhere).
+    rtol : float, default 1e-6
+        The data must integrate to zero over each component: ``|sum| <= rtol sum |data|``.
 
-    The constant functions of every connected component are in the null space: the data
-    must integrate to zero over each component (else :class:`CompatibilityError`, with
-    ``rtol`` relative to ``sum |data|``), and the solution is fixed by the gauge
-    ``"mean"`` (zero mean per component) or an integer vertex (``f[gauge] = 0`` in its
-    component, zero mean elsewhere). Unreferenced vertices get 0.
+    Returns
+    -------
+    f : (n,) float64 array
+        Unreferenced vertices get 0.
+
+    Raises
+    ------
+    tetlap.CompatibilityError
+        Data that do not integrate to zero (no solution exists).
+    tetlap.SolveError
+        A system without an accurate solution.
     """
-    L = sp.csr_array(L, dtype=np.float64)
+    L = _arrays.matrix(L)
     n = L.shape[0]
-    data = -np.asarray(g, dtype=np.float64)
+    data = -_arrays.vector(g, n, "g")
     if rhs is not None:
-        data = data + np.asarray(rhs, dtype=np.float64)
-    if data.shape != (n,):
-        raise ShapeError(f"g and rhs must have shape ({n},)")
+        data = data + _arrays.vector(rhs, n, "rhs")
+    gauge = _gauge(gauge, n)
     labels, referenced = _components(L)
     comps = np.unique(labels[referenced])
     rows, cols, vals = [], [], []
@@ -156,20 +230,18 @@ def neumann(L, g, rhs=None, *, gauge="mean", rtol: float = 1e-6) -> np.ndarray:
             raise CompatibilityError(
                 f"the Neumann data do not integrate to zero on the component of vertex "
                 f"{members[0]}: sum = {total:.3e} (relative {total / scale:.1e})")
-        if isinstance(gauge, (int, np.integer)) and not isinstance(gauge, bool) and gauge in members:
-            gauged = np.array([gauge])
-        elif gauge == "mean" or isinstance(gauge, (int, np.integer)):
-            gauged = members
-        else:
-            raise OptionError(f'gauge must be "mean" or a vertex index, got {gauge!r}')
+        gauged = np.array([gauge]) if gauge != "mean" and gauge in members else members
         rows += [np.full(len(gauged), k)]
         cols += [gauged]
         vals += [np.ones(len(gauged))]
+    if not len(comps):
+        return np.zeros(n)
     C = sp.csr_array((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                      shape=(len(comps), n))
     lone = sp.diags_array((~referenced).astype(np.float64))
     K = sp.block_array([[L + lone, C.T], [C, None]], format="csc")
-    sol = spsolve(K, np.concatenate([np.where(referenced, data, 0.0), np.zeros(len(comps))]))
+    sol = _solve(K, np.concatenate([np.where(referenced, data, 0.0), np.zeros(len(comps))]),
+                 "Neumann system")
     return sol[:n]
 
 
@@ -186,20 +258,23 @@ def neumann_primal_kkt(L, V, T=None, normal_derivative=None, rhs=None, *,
 
         minimise |C f - g|^2  subject to  L_I f = rhs_I  (and the gauge).
 
-    Linear functions are reproduced exactly. Returns f (n,).
+    ``gauge`` is ``"mean"`` (zero mean) or a vertex index (``f[gauge] = 0``); the mesh must
+    be connected. Linear functions are reproduced exactly. Returns f (n,) float64.
     """
-    L = sp.csr_array(L, dtype=np.float64)
+    L = _arrays.matrix(L)
     V, T = _geometry(V, T, normal_derivative)
     n = len(V)
+    if L.shape[0] != n:
+        raise ShapeError(f"L has shape {L.shape}, the mesh has {n} vertices")
+    gauge = _gauge(gauge, n)
     bf, tets, corners = diagnostics.boundary_faces(T, return_tets=True)
     centroid = V[bf].mean(axis=1)
-    normal = diagnostics.face_normals(V, bf)
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = _unit_normals(V, bf, tets)
     # orient outward: away from the tet's opposite vertex
     opposite = V[T[tets, corners]]
     normal *= np.sign(np.einsum("ij,ij->i", normal, centroid - opposite))[:, None]
-    g = normal_derivative(centroid, normal) if callable(normal_derivative) else np.asarray(
-        normal_derivative, dtype=np.float64)
+    g = normal_derivative(centroid, normal) if callable(normal_derivative) else normal_derivative
+    g = _arrays.vector(g, len(bf), "normal_derivative")
     # gradient of the P1 function on tet t: G_t f = sum_a f_a grad(lambda_a)
     X = V[T[tets]]
     E = X[:, 1:] - X[:, :1]
@@ -210,15 +285,25 @@ def neumann_primal_kkt(L, V, T=None, normal_derivative=None, rhs=None, *,
                      shape=(len(bf), n))
     inner = diagnostics.interior_vertices(T, n)
     LI = L[inner]
-    b = np.zeros(int(inner.sum())) if rhs is None else np.asarray(rhs, dtype=np.float64)[inner]
+    b = np.zeros(int(inner.sum())) if rhs is None else _arrays.vector(rhs, n, "rhs")[inner]
     gauge_row = sp.csr_array(np.ones((1, n)) if gauge == "mean" else
-                             sp.csr_array(([1.0], ([0], [int(gauge)])), shape=(1, n)))
+                             sp.csr_array(([1.0], ([0], [gauge])), shape=(1, n)))
     A = sp.vstack([LI, gauge_row])
     K = sp.block_array([[C.T @ C, A.T], [A, None]], format="csc")
-    sol = spsolve(K, np.concatenate([C.T @ g, b, [0.0]]))
-    if not np.isfinite(sol).all():
-        raise TetlapError("the KKT system is singular (is the mesh connected?)")
+    sol = _solve(K, np.concatenate([C.T @ g, b, [0.0]]), "KKT system (is the mesh connected?)")
     return sol[:n]
+
+
+def _unit_normals(V, F, tets) -> np.ndarray:
+    """Unit normals of the faces ``F``; a degenerate face (zero area) raises
+    :class:`tetlap.DegenerateElementError` naming its tet."""
+    n = diagnostics.face_normals(V, F)
+    area = np.linalg.norm(n, axis=1)
+    if not (area > 0).all():
+        t = int(tets[np.argmin(area > 0)])
+        raise DegenerateElementError(f"element {t} has a boundary face of zero area",
+                                     element=t)
+    return n / area[:, None]
 
 
 def _geometry(V, T, normal_derivative):
@@ -232,12 +317,10 @@ def _geometry(V, T, normal_derivative):
 def _boundary_pieces(V, T):
     """Boundary faces (F, 3), outward unit normals, and per corner the circumcentric
     (signed) and the barycentric areas of the face."""
-    V = _arrays.points(V)
-    bf = diagnostics.boundary_faces(T)
+    bf, tets, _ = diagnostics.boundary_faces(T, return_tets=True)
     P = V[bf]
-    n = diagnostics.face_normals(V, bf)
-    area = np.linalg.norm(n, axis=1)
-    unit = n / area[:, None]
+    unit = _unit_normals(V, bf, tets)
+    area = np.linalg.norm(diagnostics.face_normals(V, bf), axis=1)
     # circumcentric piece of corner a: triangles (x_a, c_ab, c) and (x_a, c_ac, c), signed
     # area = (|ab|^2 cot(angle at c) + |ac|^2 cot(angle at b)) / 8
     cot = np.empty((len(bf), 3))
@@ -255,14 +338,15 @@ def _flux(V, T, normal_derivative, which: int) -> np.ndarray:
     V, T = _geometry(V, T, normal_derivative)
     bf, unit, circ, bary, P = _boundary_pieces(V, T)
     area = (circ, bary)[which]
-    n = len(_arrays.points(V))
+    n = len(V)
     if callable(normal_derivative):
         # one quadrature point per corner piece: its own corner's sub-region centroid
         centroid = P.mean(axis=1)
-        values = np.stack([normal_derivative((P[:, k] + centroid) / 2, unit) for k in range(3)],
+        values = np.stack([_arrays.vector(normal_derivative((P[:, k] + centroid) / 2, unit),
+                                          len(bf), "normal_derivative(...)") for k in range(3)],
                           axis=1)
     else:
-        grad = np.asarray(normal_derivative, dtype=np.float64)
+        grad = _arrays.vector(normal_derivative, 3, "normal_derivative (a constant gradient)")
         values = np.repeat((unit @ grad)[:, None], 3, axis=1)
     return np.bincount(bf.ravel(), weights=(area * values).ravel(), minlength=n)
 
@@ -287,32 +371,48 @@ def fem_boundary_areas(V, T=None, normal_derivative=None) -> np.ndarray:
 def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None):
     """The ``k`` smallest eigenpairs of ``-L_II f = lambda M_II f`` (Eq. 30).
 
-    ``I`` are the vertices not in ``fixed`` (Dirichlet conditions, e.g. the boundary; None
-    for no constraint). Shift-invert Lanczos (``scipy.sparse.linalg.eigsh``) around
-    ``sigma`` (default slightly below 0), so it stays fast on 1e5+ vertices. ``M_II``
-    must be positive definite: a lumped mass with a non-positive free entry (circumcentric
-    masses on bad meshes) raises :class:`~tetlap.TetlapError`.
+    Parameters
+    ----------
+    L : (n, n) SciPy sparse array or matrix
+        A Laplacian (not modified).
+    M : (n, n) SciPy sparse array or matrix
+        A mass matrix; ``M_II`` must be positive definite: a lumped mass with a
+        non-positive free entry (circumcentric masses on bad meshes) raises
+        :class:`tetlap.SolveError` naming the vertex.
+    k : int, default 10
+        Number of eigenpairs, ``1 <= k < n_free``.
+    fixed : (n,) bool mask or integer array, optional
+        Dirichlet vertices (e.g. the boundary; ``None``: no constraint). ``I`` are the
+        others.
+    sigma : float, optional
+        The shift of the shift-invert Lanczos iteration (``scipy.sparse.linalg.eigsh``;
+        default slightly below 0), so it stays fast on 1e5+ vertices.
 
     Returns
     -------
-    eigenvalues : (k,) ascending.
-    eigenvectors : (n, k), zero on ``fixed`` vertices, M-orthonormal on the free ones.
+    eigenvalues : (k,) float64, ascending.
+    eigenvectors : (n, k) float64, zero on ``fixed`` vertices, M-orthonormal on the free
+        ones. Every pair is checked: ``|A v - lambda B v| <= 1e-8 (|A| + |lambda| |B|)
+        |v|`` (infinity norms), else :class:`tetlap.SolveError`.
     """
-    L = sp.csr_array(L, dtype=np.float64)
-    M = sp.csr_array(M, dtype=np.float64)
+    L = _arrays.matrix(L)
     n = L.shape[0]
+    M = _arrays.matrix(M, n, "M")
     fixed = np.zeros(n, dtype=bool) if fixed is None else _mask(fixed, n)
     free = np.flatnonzero(~fixed)
-    if not 0 < k < len(free):
-        raise OptionError(f"k must be between 1 and {len(free) - 1}, got {k}")
+    if not isinstance(k, numbers.Integral) or isinstance(k, bool) or not 0 < k < len(free):
+        raise OptionError(f"k must be an integer between 1 and {len(free) - 1}, got {k!r}")
+    k = int(k)
+    if sigma is not None and not (isinstance(sigma, numbers.Real) and np.isfinite(sigma)):
+        raise OptionError(f"sigma must be a finite real number or None, got {sigma!r}")
     A = -L[free][:, free]
     B = M[free][:, free]
     is_diagonal = B.nnz == np.count_nonzero(B.diagonal())
     if is_diagonal:
         d = B.diagonal()
         if (d <= 0).any():
-            bad = free[np.argmin(d)]
-            raise TetlapError(
+            bad = int(free[np.argmin(d)])
+            raise SolveError(
                 f"the mass matrix is not positive on the free vertices: M[{bad}, {bad}] = "
                 f"{d.min():.3e} ({int((d <= 0).sum())} entries <= 0); circumcentric masses "
                 "can be negative on non-Delaunay meshes: use boundary='barycentric' or the "
@@ -320,8 +420,19 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None):
     if sigma is None:
         scale = abs(A).max() / max(abs(B).max(), 1e-300)
         sigma = -1e-6 * scale
-    lam, vec = eigsh(sp.csc_array(A), k=k, M=sp.csc_array(B), sigma=sigma, which="LM")
+    try:
+        lam, vec = eigsh(sp.csc_array(A), k=k, M=sp.csc_array(B), sigma=float(sigma), which="LM")
+    except Exception as e:  # ARPACK and SuperLU failures: no eigenpairs to return
+        raise SolveError(f"the eigenproblem could not be solved ({type(e).__name__}: {e})") from e
     order = np.argsort(lam)
+    lam, vec = lam[order], vec[:, order]
+    norm_a, norm_b = abs(A).sum(axis=1).max(), abs(B).sum(axis=1).max()
+    for j in range(k):
+        v = vec[:, j]
+        residual = np.abs(A @ v - lam[j] * (B @ v)).max()
+        if not np.isfinite(lam[j]) or residual > RESIDUAL_TOL * (norm_a + abs(lam[j]) * norm_b) * np.abs(v).max():
+            raise SolveError(f"eigenpair {j} (lambda = {lam[j]:.6g}) has relative residual "
+                             f"{residual / ((norm_a + abs(lam[j]) * norm_b) * np.abs(v).max()):.1e}")
     full = np.zeros((n, k))
-    full[free] = vec[:, order]
-    return lam[order], full
+    full[free] = vec
+    return lam, full

@@ -215,7 +215,7 @@ fn certify(l: &Csr, tol: f64, opts: &Options) -> Result<Semidefinite> {
         let passed: Vec<bool> = groups
             .par_iter()
             .zip(&sets)
-            .map(|(g, s)| s.len() <= MAX_GROUP && covered(l, g, s, &share, shift))
+            .map(|(g, s)| !opts.is_cancelled() && s.len() <= MAX_GROUP && covered(l, g, s, &share, shift))
             .collect();
         opts.cancelled()?;
         let failing: Vec<usize> = (0..groups.len()).filter(|&g| !passed[g]).collect();

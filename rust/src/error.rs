@@ -31,7 +31,9 @@ pub enum Error {
     RepeatedVertex { element: usize, vertex: u32 },
     /// An element has exactly zero volume (its vertices are affinely dependent).
     Degenerate { element: usize },
-    /// An element's contribution overflows `f64` (nearly degenerate, or huge coordinates).
+    /// An element's contribution cannot be computed accurately in `f64`: nearly degenerate,
+    /// a volume beyond the `f64` range, or vertex weights far larger than its squared
+    /// edges (the dual's pieces cancel to fewer than half of the digits).
     NonFiniteResult { element: usize },
     /// The entries of a row (or the masses at a vertex) sum beyond the `f64` range,
     /// although every element's own values are finite (coordinates too large).
@@ -100,9 +102,9 @@ impl fmt::Display for Error {
             ),
             Error::NonFiniteResult { element } => write!(
                 f,
-                "element {element}: its contribution is not finite in double precision \
-                 (a nearly degenerate element, or coordinates so large that its volume \
-                 overflows); Degenerate::Skip drops it"
+                "element {element}: its contribution cannot be computed accurately in double \
+                 precision (a nearly degenerate element, a volume beyond the f64 range, or \
+                 vertex weights far larger than its squared edges); Degenerate::Skip drops it"
             ),
             Error::SumOverflow { vertex } => write!(
                 f,

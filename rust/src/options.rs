@@ -130,6 +130,11 @@ impl Options {
         Ok(())
     }
 
+    /// Whether the cancel flag is set.
+    pub fn is_cancelled(&self) -> bool {
+        self.cancel.as_ref().is_some_and(Cancel::is_cancelled)
+    }
+
     /// [`Error::Cancelled`] once the cancel flag is set.
     pub fn cancelled(&self) -> Result<()> {
         match &self.cancel {

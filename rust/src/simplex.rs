@@ -130,6 +130,14 @@ impl Simplex for Tet {
         let centers = local::Centers::weighted(l, relative);
         let centers = if fix_boundary { centers.clamp_to_centroids(l) } else { centers };
         let d = local::dual_from_centers(l, &centers);
+        // The pieces sum to the volume exactly; far-off centers (weights much larger than
+        // the squared edges) make them huge and of both signs: when their sum has lost
+        // more than half of the digits, nothing computed from them is trustworthy.
+        let volume = local::volume(l);
+        let total: f64 = d.cell_volumes.iter().sum();
+        if !((total - volume).abs() <= 1e-8 * volume) {
+            return ([f64::NAN; 6], [f64::NAN; 4]);
+        }
         (d.weights, d.cell_volumes)
     }
 }

@@ -107,9 +107,10 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             py,
             &c.degenerate,
             format!(
-                "element {element}: its contribution is not finite in double precision (a nearly \
-                 degenerate element, or coordinates so large that its volume overflows); pass \
-                 degenerate=\"skip\" to drop it"
+                "element {element}: its contribution cannot be computed accurately in double \
+                 precision (a nearly degenerate element, a volume beyond the float64 range, or \
+                 vertex weights far larger than its squared edges); pass degenerate=\"skip\" to \
+                 drop it"
             ),
             &[("element", i(element))],
         ),
