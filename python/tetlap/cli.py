@@ -107,6 +107,9 @@ def _info(args) -> int:
         print(json.dumps({"source": source, **result}, indent=2))
     else:
         _print_info(result, source)
+    if args.plot:
+        files = info.plot(V, T, args.plot)
+        print(f"plots: {', '.join(str(p) for p in files)}", file=sys.stderr if args.json else sys.stdout)
     return 0
 
 
@@ -192,6 +195,9 @@ def parser() -> argparse.ArgumentParser:
     info.add_argument("--json", action="store_true", help="print one JSON object (default: tables)")
     info.add_argument("--no-nsd", action="store_true",
                       help="skip the semidefiniteness certificates (default: computed)")
+    info.add_argument("--plot", metavar="DIR",
+                      help="also write histograms of dihedral angles, weights and masses "
+                           "(PNG) into DIR")
     asm = sub.add_parser("assemble", help="save L and M as scipy .npz files",
                          description="Assemble L and M and save them for scipy.sparse.load_npz.")
     asm.add_argument("mesh", help="mesh file (any format meshio reads)")

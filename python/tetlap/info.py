@@ -19,7 +19,7 @@ from . import _arrays, assembly, diagnostics
 from ._progress import Stages
 from .properties import check
 
-__all__ = ["report", "PAIRS"]
+__all__ = ["report", "plot", "PAIRS"]
 
 #: The operators of the report: (Laplacian kind, mass kind).
 PAIRS = (("primal", "barycentric"), ("dual", "circumcentric"))
@@ -59,3 +59,72 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None) -> dict
         result[lap] = check(L, V, T, M, kind=lap, nsd=nsd).to_dict()
     step.done()
     return result
+
+
+def plot(V, T=None, folder=".") -> list:
+    """Histograms of a mesh's dihedral angles, of the edge weights of both Laplacians and of
+    the barycentric and circumcentric masses, as PNG files in ``folder`` (created if
+    needed); returns their paths. Needs matplotlib (``pip install 'tetlap[experiments]'``).
+
+    Example
+    -------
+    >>> import tempfile, tetlap
+    >>> files = tetlap.info.plot(*tetlap.meshes.cube(3, jitter=0.2), tempfile.mkdtemp())
+    >>> sorted(p.name for p in files)
+    ['dihedral_angles.png', 'masses.png', 'weights.png']
+    """
+    import pathlib
+
+    import numpy as np
+
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise ImportError("info plots need matplotlib: pip install 'tetlap[experiments]'") from None
+    V, T = _arrays.mesh(V, T)
+    V = _arrays.points(V)
+    T = _arrays.elements(T, 4)
+    folder = pathlib.Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+
+    def save(fig, name):
+        path = folder / name
+        fig.savefig(path, dpi=120, bbox_inches="tight")
+        plt.close(fig)
+        paths.append(path)
+
+    angles = diagnostics.dihedral_angles(V, T).ravel()
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.hist(angles[np.isfinite(angles)], bins=90, range=(0, 180))
+    ax.set_xlabel("dihedral angle (degrees)")
+    ax.set_ylabel("tet edges")
+    ax.set_title(f"dihedral angles of {len(T)} tets")
+    save(fig, "dihedral_angles.png")
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+    for ax, kind in zip(axes, ("primal", "dual")):
+        _, w = assembly.edge_weights(V, T, kind, degenerate="skip")
+        negative = (w < 0).mean() if len(w) else 0.0
+        ax.hist(w, bins=100, color="tab:blue" if kind == "primal" else "tab:orange")
+        ax.axvline(0, color="k", lw=0.8)
+        ax.set_yscale("log")
+        ax.set_xlabel("edge weight w_ij")
+        ax.set_title(f"{kind}: {100 * negative:.2f}% negative")
+    fig.suptitle("edge weights of the two Laplacians")
+    save(fig, "weights.png")
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+    for ax, kind in zip(axes, ("barycentric", "circumcentric")):
+        m = assembly.mass(V, T, kind, degenerate="skip").diagonal()
+        ax.hist(m, bins=100)
+        ax.axvline(0, color="k", lw=0.8)
+        ax.set_yscale("log")
+        ax.set_xlabel("vertex mass")
+        ax.set_title(f"{kind}: {int((m <= 0).sum())} <= 0")
+    fig.suptitle("lumped masses")
+    save(fig, "masses.png")
+    return paths

@@ -254,7 +254,7 @@ def neumann_primal_kkt(L, V, T=None, normal_derivative=None, rhs=None, *,
     in the order of :func:`tetlap.diagnostics.boundary_faces`, or a callable taking the
     face centroids (F, 3) and outward unit normals (F, 3)). There are more faces than
     boundary vertices, so the constraints are met in the least-squares sense while the
-    interior rows ``(L f)_I = rhs_I`` hold exactly (Lagrange multipliers):
+    interior rows ``(L f)_I = rhs_I`` hold exactly (Lagrange multipliers)::
 
         minimise |C f - g|^2  subject to  L_I f = rhs_I  (and the gauge).
 
