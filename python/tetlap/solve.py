@@ -50,7 +50,7 @@ RESIDUAL_TOL = 1e-8
 
 
 def _mask(fixed, n: int) -> np.ndarray:
-    fixed = np.asarray(fixed)
+    fixed = _arrays._as_array(fixed, "fixed")
     if fixed.dtype == bool:
         if fixed.shape != (n,):
             raise ShapeError(f"a boolean `fixed` must have shape ({n},), got {fixed.shape}")
@@ -67,7 +67,10 @@ def _mask(fixed, n: int) -> np.ndarray:
 
 def _values(values, fixed: np.ndarray) -> np.ndarray:
     n = len(fixed)
-    v = np.asarray(values, dtype=np.float64)
+    v = np.asarray(values) if np.isscalar(values) else _arrays._as_array(values, "values")
+    if v.dtype.kind not in "fiub":
+        raise DtypeError(f"values must hold real numbers, got dtype {v.dtype}")
+    v = v.astype(np.float64)
     if v.ndim == 0:
         out = np.zeros(n)
         out[fixed] = v
