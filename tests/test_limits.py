@@ -76,6 +76,17 @@ def test_masses_outside_the_float64_range_are_errors_or_skipped(scale):
     assert abs(L / scale - ref).max() <= 1e-13 * abs(ref).max()
 
 
+@pytest.mark.parametrize("kind", ["barycentric", "circumcentric", "fem"])
+def test_volumes_near_the_top_of_the_range_are_exact(kind):
+    """A tet of volume ~2e307: finite, although the power-of-two scale the kernels
+    normalise by, cubed (~2^1026), is not."""
+    s = 5e102
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float) * s
+    M = tetlap.mass(V, np.array([[0, 1, 2, 3]]), kind)
+    assert np.isfinite(M.data).all()
+    assert M.sum() == pytest.approx(s**3 / 6, rel=1e-14)
+
+
 def test_skip_drops_an_element_from_exactly_the_outputs_it_fails():
     """One rule: an output of operators() equals that output computed alone."""
     V, T = tetlap.meshes.cube(2, jitter=0.2, seed=1)

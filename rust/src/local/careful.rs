@@ -93,8 +93,8 @@ pub(crate) fn dual(t: &LocalTet) -> ([f64; 6], [f64; 4]) {
         cell_volumes[a] += pieces;
         cell_volumes[b] += pieces;
     }
-    let s3 = t.scale * t.scale * t.scale;
-    (weights, cell_volumes.map(|v| v * s3))
+    // scaled step by step (exact powers of two): s^3 alone could overflow
+    (weights, cell_volumes.map(|v| v * t.scale * t.scale * t.scale))
 }
 
 #[cfg(test)]

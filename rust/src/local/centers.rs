@@ -129,8 +129,8 @@ pub fn dual_from_centers(t: &LocalTet, c: &Centers) -> Dual {
         cell_volumes[a] += v_abk + v_abl;
         cell_volumes[b] += v_bak + v_bal;
     }
-    let s3 = t.scale * t.scale * t.scale;
-    Dual { weights, cell_volumes: cell_volumes.map(|v| v * s3) }
+    // scaled step by step (exact powers of two): s^3 alone could overflow
+    Dual { weights, cell_volumes: cell_volumes.map(|v| v * t.scale * t.scale * t.scale) }
 }
 
 #[cfg(test)]

@@ -77,8 +77,8 @@ pub fn dual(t: &LocalTet) -> Dual {
         cell_volumes[a] += pieces;
         cell_volumes[b] += pieces;
     }
-    let s3 = t.scale * t.scale * t.scale;
-    Dual { weights, cell_volumes: cell_volumes.map(|v| v * s3) }
+    // scaled step by step (exact powers of two): s^3 alone could overflow
+    Dual { weights, cell_volumes: cell_volumes.map(|v| v * t.scale * t.scale * t.scale) }
 }
 
 #[cfg(test)]

@@ -76,8 +76,7 @@ pub fn tri_dual(t: &LocalTri) -> ([f64; 3], [f64; 3]) {
         areas[i] += piece_i / 2.0;
         areas[j] += piece_j / 2.0;
     }
-    let s2 = t.scale * t.scale;
-    (weights, areas.map(|v| v * s2))
+    (weights, areas.map(|v| v * t.scale * t.scale))
 }
 
 /// Below this squared edge length (in the normalised frame, `2^-600`) the direct formulas
@@ -117,8 +116,7 @@ fn careful(t: &LocalTri) -> ([f64; 3], [f64; 3]) {
         areas[i] += piece;
         areas[j] += piece;
     }
-    let s2 = t.scale * t.scale;
-    (weights, areas.map(|a| a * s2))
+    (weights, areas.map(|a| a * t.scale * t.scale))
 }
 
 #[cfg(test)]
