@@ -6,6 +6,7 @@
 //! well-shaped tets.
 
 mod centers;
+pub mod derivatives;
 mod dual;
 mod mass;
 mod primal;
