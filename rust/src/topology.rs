@@ -251,7 +251,7 @@ pub fn boundary_elements<S: Simplex>(cells: &[S::Cell]) -> Vec<bool> {
 
 /// Element-corners per vertex (ascending corner ids within each vertex), by a counting
 /// sort parallel over vertex ranges: every worker scans all corners and keeps its own range.
-fn corner_incidence<S: Simplex>(cells: &[S::Cell], n: usize) -> Incidence {
+pub(crate) fn corner_incidence<S: Simplex>(cells: &[S::Cell], n: usize) -> Incidence {
     // every corner's vertex, in element-corner order `K t + c`
     let corners = || cells.iter().flat_map(|c| c.as_ref().iter().copied());
     let parts = (rayon::current_num_threads() * 2).clamp(1, n.max(1));
