@@ -31,6 +31,7 @@ from .errors import (
     ShapeError,
     TetlapError,
 )
+from .derivatives import VJP, dirichlet_energy, mass_energy, vjp
 from .assembly import (
     Triplets,
     edge_weights,
@@ -51,6 +52,10 @@ __all__ = [
     "edge_weights",
     "tet_contributions",
     "Triplets",
+    "vjp",
+    "dirichlet_energy",
+    "mass_energy",
+    "VJP",
     "Mesh",
     "UpdateInfo",
     "check",

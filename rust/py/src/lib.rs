@@ -7,6 +7,7 @@
 //! conversions and SciPy wrapping, is the Python package `tetlap`.
 
 mod convert;
+mod derivatives;
 mod errors;
 mod mesh;
 mod options;
@@ -24,6 +25,9 @@ mod _core {
 
     #[pymodule_export]
     use crate::mesh::PyMesh;
+
+    #[pymodule_export]
+    use crate::derivatives::vjp;
 
     type Points<'py> = PyReadonlyArray2<'py, f64>;
     type Cells<'py> = PyReadonlyArray2<'py, i64>;
