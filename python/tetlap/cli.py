@@ -5,6 +5,7 @@
     tetlap assemble MESH -o L.npz  save L (and M to L.mass.npz) for scipy.sparse.load_npz
     tetlap bench [--sizes ...] [--operators ...]  timings against the floor and baselines
     tetlap experiment NAME         the paper's experiments (CSV + PNG + summary)
+    tetlap improve MESH -o OUT     move interior vertices to remove negative dual weights
     tetlap distributed-info P T    (under mpirun) global checks with PETSc, from .npy files
 """
 
@@ -199,6 +200,10 @@ def main(argv: list[str] | None = None) -> int:
     p_exp.add_argument("--out", help="output folder (default tetlap-experiments/NAME)")
     p_exp.add_argument("--seed", type=int, default=0)
     p_exp.add_argument("--meshes", help="negative-weights: a folder of mesh files")
+    from . import improve as _improve
+
+    _improve.add_arguments(sub.add_parser(
+        "improve", help="move interior vertices to remove negative dual weights"))
     p_dist = sub.add_parser("distributed-info",
                             help="under mpirun: counts and checks with PETSc from .npy files")
     p_dist.add_argument("points", help="(n, d) float .npy file")
@@ -223,6 +228,9 @@ def main(argv: list[str] | None = None) -> int:
         print((folder / "summary.txt").read_text(), end="")
         print(f"files: {', '.join(sorted(p.name for p in folder.iterdir()))} in {folder}")
         return 0
+
+    if args.command == "improve":
+        return _improve.main(args)
 
     if args.command == "bench":
         from . import benchmark
