@@ -333,6 +333,11 @@ def test_errors():
         tetlap.dirichlet_energy(V, T, f, threads=0)
     with pytest.raises(tetlap.ShapeError):
         tetlap.dirichlet_energy(V, [[0, 1, 2]], f)
+    # the kinds are checked even without a cotangent
+    with pytest.raises(tetlap.OptionError):
+        tetlap.vjp(V, T, "cotan")
+    with pytest.raises(tetlap.OptionError):
+        tetlap.vjp(V, T, mass="lumped")
     # no cotangent at all: a zero gradient
     g = tetlap.vjp(V, T)
     assert g.value == 0 and not g.dV.any()

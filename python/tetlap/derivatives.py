@@ -189,9 +189,8 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     n, m = V.shape[0], T.shape[0]
     dl = _laplacian_cotangent(dL, n, m)
     dm = _mass_cotangent(dM, n)
-    dV, dweights, value = _core.vjp(
-        V, T, kind if dl is not None else None, mass if dm is not None else None, dl=dl,
-        dm=dm, weights=w, boundary=boundary, degenerate=degenerate, threads=threads)
+    dV, dweights, value = _core.vjp(V, T, kind, mass, dl=dl, dm=dm, weights=w,
+                                    boundary=boundary, degenerate=degenerate, threads=threads)
     return VJP(dV, dweights, float(value))
 
 

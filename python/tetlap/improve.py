@@ -50,6 +50,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import _arrays, assembly, derivatives, diagnostics
+from .errors import ShapeError
 
 __all__ = ["improve", "Improvement", "dual_statistics", "main", "add_arguments"]
 
@@ -195,7 +196,7 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
     V0 = _arrays.points(V)
     T = _arrays.elements(T, 4)
     if V0.shape[1] != 3:
-        raise ValueError(f"improve needs points in R^3, got dimension {V0.shape[1]}")
+        raise ShapeError(f"improve needs points in R^3, got dimension {V0.shape[1]}")
     n = len(V0)
     before = dual_statistics(V0, T)
     edges = diagnostics.mesh_edges(T)
@@ -211,7 +212,7 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
     if fixed is not None:
         fixed = np.asarray(fixed, dtype=bool)
         if fixed.shape != (n,):
-            raise ValueError(f"fixed must have shape ({n},), got {fixed.shape}")
+            raise ShapeError(f"fixed must have shape ({n},), got {fixed.shape}")
         free &= ~fixed
     idx = np.flatnonzero(free)
     shortest = np.full(n, np.inf)

@@ -57,7 +57,8 @@ def _upper(L) -> np.ndarray:
 def _function(T, kind, mass_kind, weighted, opts):
     """The custom_vjp function ``(V, omega) -> (w, m)`` of one mesh and option set."""
     T = _arrays.elements(T, 4)
-    n_edges = len(diagnostics.mesh_edges(T))
+    edges_ = diagnostics.mesh_edges(T)
+    n_edges = len(edges_)
     want_lap, want_mass = kind is not None, mass_kind is not None
     if want_mass and mass_kind not in _LUMPED:
         raise OptionError(f"the adapters give lumped masses: mass must be \"barycentric\" or "
@@ -87,8 +88,6 @@ def _function(T, kind, mass_kind, weighted, opts):
                 weights=w, **opts)
         dom = g.dweights if g.dweights is not None else np.zeros(V64.shape[0])
         return g.dV.astype(np.asarray(V).dtype), dom.astype(np.asarray(omega).dtype)
-
-    edges_ = diagnostics.mesh_edges(T)
 
     def shapes(V):
         return (jax.ShapeDtypeStruct((n_edges,), V.dtype),
