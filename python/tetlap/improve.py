@@ -202,8 +202,10 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
     edges = diagnostics.mesh_edges(T)
     lengths = np.linalg.norm(V0[edges[:, 0]] - V0[edges[:, 1]], axis=1)
     h = float(lengths.mean())
-    q0, _ = _quality_and_gradient(V0, T)
-    degenerate = np.abs(q0) <= 1e-12 * np.abs(q0).max()
+    with np.errstate(invalid="ignore", divide="ignore"):
+        q0, _ = _quality_and_gradient(V0, T)
+    # flat tets (and tets with coincident corners, q = NaN) neither move nor count
+    degenerate = ~(np.abs(q0) > 1e-12 * np.nanmax(np.abs(q0)))
     on_boundary = diagnostics.boundary_vertices(T, n)
     inner = ~(on_boundary[edges[:, 0]] & on_boundary[edges[:, 1]])
     edges_in = edges[inner]

@@ -96,7 +96,7 @@ def _shell_rows(n, weight_scale, seed, iterations):
 
 def run(out, meshes=None) -> None:
     quick, seed = out.quick, out.seed
-    iterations = 25 if quick else 150
+    iterations = 25 if quick else 100
     sources = corpus(meshes, quick)
     out.say(f"corpus: {meshes or os.environ.get('TETLAP_MESHES') or '(none found)'} "
             f"({len(sources)} meshes); {iterations} L-BFGS-B iterations at most")
