@@ -110,3 +110,12 @@ def test_docstring_example_runs():
 
     result = doctest.testmod(imp)
     assert result.attempted >= 4 and result.failed == 0
+
+
+def test_never_more_negative_weights_than_the_input():
+    """A Kuhn grid has many zero interior weights (right dihedral angles): the penalty
+    would trade them for tiny negative ones; the final scaling keeps the count."""
+    V, T = tetlap.meshes.cube(4)
+    r = imp.improve(V, T, max_iterations=10)
+    assert r.before["negative_interior"] == 0
+    assert r.after["negative_interior"] == 0
