@@ -160,7 +160,7 @@ def _summarise(out) -> None:
         if rows:
             b = np.array([r["negative_before"] / max(r["interior_edges"], 1) for r in rows])
             a = np.array([r["negative_after"] / max(r["interior_edges"], 1) for r in rows])
-            top = max(b.max(), a.max(), 1e-4) * 1.1
+            top = 100 * max(b.max(), a.max(), 1e-4) * 1.05
             axes[0].plot([0, top], [0, top], "k:", lw=1)
             axes[0].plot(100 * b, 100 * a, "o")
             axes[0].set_xlabel("negative interior dual weights before (%)")
