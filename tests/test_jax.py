@@ -131,6 +131,7 @@ def rel(a, b):
     return float(np.abs(np.asarray(a) - np.asarray(b)).max() / np.abs(np.asarray(b)).max())
 
 
+@pytest.mark.slow
 def test_reference_matches_tetlap_forward():
     V, T = random_mesh(1, n=16)
     X = jnp.asarray(V[T])
@@ -174,6 +175,7 @@ def test_weighted_gradients_match_jax_grad_of_the_reference():
     assert rel(dw + mw, gw) < 1e-10
 
 
+@pytest.mark.slow
 def test_adapter_grad_jit_and_bcoo():
     V, T = tetlap.meshes.cube(3, jitter=0.2, seed=5)
     E = tj.edges(T)
