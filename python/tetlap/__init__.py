@@ -34,6 +34,7 @@ from .errors import (
     SolveError,
     TetlapError,
 )
+from .derivatives import VJP, dirichlet_energy, mass_energy, vjp
 from .assembly import (
     Triplets,
     edge_weights,
@@ -54,6 +55,10 @@ __all__ = [
     "edge_weights",
     "tet_contributions",
     "Triplets",
+    "vjp",
+    "dirichlet_energy",
+    "mass_energy",
+    "VJP",
     "Mesh",
     "UpdateInfo",
     "check",

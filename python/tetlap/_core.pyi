@@ -12,7 +12,7 @@ import numpy.typing as npt
 from typing_extensions import Self
 
 __all__ = ["laplacian", "mass", "operators", "contributions", "triplets", "edge_weights",
-           "Mesh", "MAX_THREADS", "DELAUNAY_RTOL", "MAX_GROUP", "faces", "duplicates", "edges",
+           "vjp", "Mesh", "MAX_THREADS", "DELAUNAY_RTOL", "MAX_GROUP", "faces", "duplicates", "edges",
            "quality", "non_delaunay", "check_operator", "negative_semidefinite"]
 
 MAX_THREADS: int
@@ -43,6 +43,17 @@ def triplets(points: _F64, cells: _Cells, kind: _Kind, *, weights: _F64 | None =
 def edge_weights(points: _F64, cells: _Cells, kind: _Kind, *, weights: _F64 | None = None,
                  boundary: str = ..., degenerate: str = ..., threads: int | None = ...
                  ) -> tuple[npt.NDArray[np.int64], _F64]: ...
+
+# Cotangents of vjp: on L ("elements", (m, 6)) | ("matrix", (indptr int64, indices int64,
+# data)) | ("quadratic", (n, k)); on M ("diagonal", (n,)) | ("matrix", ...) | ("quadratic", ...).
+_SparseCot = tuple[Literal["matrix"], tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], _F64]]
+_LapCot = tuple[Literal["elements", "quadratic"], _F64] | _SparseCot
+_MassCot = tuple[Literal["diagonal", "quadratic"], _F64] | _SparseCot
+
+def vjp(points: _F64, cells: _Cells, laplacian: _Kind | None, mass: str | None, *,
+        dl: _LapCot | None = None, dm: _MassCot | None = None, weights: _F64 | None = None,
+        boundary: str = ..., degenerate: str = ..., threads: int | None = ...
+        ) -> tuple[_F64, _F64 | None, float]: ...
 
 @final
 class Mesh:

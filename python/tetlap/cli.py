@@ -6,6 +6,7 @@ work is done by :mod:`tetlap.info`, :mod:`tetlap.assembly`, :mod:`tetlap.benchma
     tetlap assemble MESH -o L.npz    L and M as scipy .npz files
     tetlap bench                     timings against the floor and the baselines
     tetlap experiment NAME           the paper's experiments (CSV + PNG + summary)
+    tetlap improve MESH -o OUT       move interior vertices to remove negative dual weights
     tetlap distributed-info P T      (under mpirun) global checks with PETSc, from .npy files
 """
 
@@ -17,7 +18,7 @@ import json
 import os
 import sys
 
-from . import __version__
+from . import __version__, experiments
 from .errors import TetlapError
 
 #: The built-in mesh of ``tetlap info`` without a file.
@@ -148,6 +149,19 @@ def _experiment(args) -> int:
     return 0
 
 
+def _improve(args) -> int:
+    from . import io
+    from .improve import format_table, improve
+
+    V, T = io.read(args.mesh)
+    result = improve(V, T, margin=args.margin, max_iterations=args.iterations, step=args.step,
+                     threads=args.threads)
+    io.write(args.output, result.V, T)
+    print(f"mesh: {args.mesh} ({len(V)} vertices, {len(T)} tets) -> {args.output}")
+    print(format_table(result))
+    return 0
+
+
 def _distributed_info(args) -> int:
     from . import distributed
 
@@ -228,12 +242,27 @@ def parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", action="store_true", help="print JSON records (default: a table)")
     exp = sub.add_parser("experiment", help="reproduce the paper's experiments",
                          description="One of the paper's Sec. 8 and 9 experiments: CSV, PNG, summary.")
-    exp.add_argument("name", choices=["dirichlet-shell", "eigen-ball", "negative-weights", "sphere3",
-                                      "flips"])
+    exp.add_argument("name", choices=list(experiments.NAMES))
     exp.add_argument("--quick", action="store_true", help="small sizes (< 2 minutes)")
     exp.add_argument("--out", help="output folder (default: tetlap-experiments/NAME)")
     exp.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    exp.add_argument("--meshes", type=_folder, help="negative-weights: a folder of mesh files")
+    exp.add_argument("--meshes", type=_folder, help="negative-weights, improve: a folder of mesh files")
+    imp = sub.add_parser("improve", help="move interior vertices to remove negative dual weights",
+                         description="Optimise interior vertex positions (L-BFGS-B) so that "
+                                     "fewer interior dual weights are negative; the boundary "
+                                     "stays fixed. See tetlap.improve.")
+    imp.add_argument("mesh", help="mesh file (any format meshio reads)")
+    imp.add_argument("-o", "--output", required=True,
+                     help="the improved mesh (format from the extension, e.g. .vtu)")
+    imp.add_argument("--margin", type=float, default=0.02,
+                     help="penalise dual weights below MARGIN times the mean edge length "
+                          "(default: 0.02)")
+    imp.add_argument("--iterations", type=_positive, default=200,
+                     help="L-BFGS-B iterations (default: 200)")
+    imp.add_argument("--step", type=float, default=0.3,
+                     help="largest move per coordinate, in shortest incident edges (default: 0.3)")
+    imp.add_argument("--threads", type=_threads, default=None,
+                     help="worker threads (default: all cores)")
     dist = sub.add_parser("distributed-info",
                           help="under mpirun: counts and checks with PETSc from .npy files")
     dist.add_argument("points", help="(n, d) float .npy file")
@@ -242,7 +271,7 @@ def parser() -> argparse.ArgumentParser:
 
 
 COMMANDS = {"info": _info, "assemble": _assemble, "experiment": _experiment,
-            "distributed-info": _distributed_info}
+            "improve": _improve, "distributed-info": _distributed_info}
 
 
 def main(argv: list[str] | None = None) -> int:

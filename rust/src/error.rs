@@ -49,6 +49,11 @@ pub enum Error {
     /// A vertex list of [`crate::CachedMesh::move_vertices`] is not ascending and distinct,
     /// or names a vertex `>= n_vertices` (`position` is its place in the list).
     VertexList { position: usize, vertex: u32, n_vertices: usize },
+    /// A cotangent given to [`crate::vjp`] holds NaN or an infinity (`what` names the
+    /// array, `index` the position in its flat values).
+    NonFiniteCotangent { what: &'static str, index: usize, value: f64 },
+    /// A derivative that [`crate::vjp`] does not provide (`what` says which).
+    NotDifferentiable { what: &'static str },
     /// The computation was cancelled through [`crate::Options::cancel`].
     Cancelled,
 }
@@ -130,6 +135,12 @@ impl fmt::Display for Error {
                 "moved vertex {vertex} at position {position}: the list must be ascending, \
                  distinct and below {n_vertices}"
             ),
+            Error::NonFiniteCotangent { what, index, value } => {
+                write!(f, "{what} holds a non-finite value {value} (at flat index {index})")
+            }
+            Error::NotDifferentiable { what } => {
+                write!(f, "derivatives of {what} are not available")
+            }
             Error::Cancelled => write!(f, "cancelled"),
         }
     }

@@ -71,6 +71,29 @@ fn normalisation(x: &[&[f64]]) -> Option<Normalisation> {
 ///
 /// `scratch` must hold at least `3 * d` values when `d > 3` (unused for `d = 3`).
 /// All four points coinciding gives zero edges (a degenerate tet).
+///
+/// # The frame it leaves in `scratch` (a contract)
+/// For `d = 3` the frame's axes are the user's: `edges[k - 1] = (x_k - x_0) / scale`.
+/// For `d > 3`, on return `scratch[..3 * d]` holds the frame: three orthonormal rows
+/// `q_0, q_1, q_2` of `d` values each (the Q of the QR factorisation of the edge matrix),
+/// with `(x_k - x_0) / scale = sum_j edges[k - 1][j] q_j` up to rounding, and `edges`
+/// upper triangular (`R`). Maps from the frame back to R^d, such as
+/// [`to_ambient`](crate::local::derivatives::to_ambient) for gradients, rely on this. For a
+/// degenerate tet (a zero diagonal entry of `R`) the rows after the first dependent edge are
+/// not normalised and must not be used.
+///
+/// ```
+/// // a tet in the plane x_3 = 2 of R^4, skewed in the x_0-x_1 plane
+/// let x = [[0., 0., 0., 2.], [1., 1., 0., 2.], [0., 1., 0., 2.], [0., 0., 1., 2.]];
+/// let mut q = vec![0.0; 12];
+/// let t = tetlap::local_tet([&x[0], &x[1], &x[2], &x[3]], &mut q);
+/// for k in 1..4 {
+///     for c in 0..4 {
+///         let e: f64 = (0..3).map(|j| t.edges[k - 1][j] * q[j * 4 + c]).sum();
+///         assert!((e * t.scale - (x[k][c] - x[0][c])).abs() < 1e-15);
+///     }
+/// }
+/// ```
 pub fn local_tet(x: [&[f64]; 4], scratch: &mut [f64]) -> LocalTet {
     let d = x[0].len();
     if d == 3 {

@@ -41,7 +41,9 @@
 //! ## Layout
 //! [`mod@local`] holds the kernels, pure functions of one element; [`Simplex`] ties them to
 //! an element kind; the drivers (validation in [`Mesh`], the per-element pass, the row
-//! layout in [`Topology`], the scatter) are written once for every kind.
+//! layout in [`Topology`], the scatter) are written once for every kind. [`vjp`]
+//! differentiates the operators of a tet mesh with respect to its points and vertex weights
+//! ([`mod@derivatives`]).
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -51,6 +53,7 @@ mod cached;
 mod check;
 mod csr;
 mod definite;
+pub mod derivatives;
 mod element;
 mod error;
 mod faces;
@@ -71,6 +74,9 @@ pub use cached::{CachedMesh, Update};
 pub use check::{check_operator, OperatorCheck};
 pub use csr::{Coo, Csr, Mass};
 pub use definite::{negative_semidefinite, Semidefinite, MAX_GROUP};
+pub use derivatives::{
+    vjp, Columns, Cotangents, CsrRef, LaplacianCotangent, MassCotangent, MeshGradient,
+};
 pub use error::{Error, Feature, Result};
 pub use geometry::{local_tet, local_tri, LocalTet, LocalTri};
 pub use mesh::{cells_from_i64, Mesh, TetMesh, TriMesh, MAX_VERTICES};

@@ -11,6 +11,7 @@ paper's. Figures need matplotlib (``pip install 'tetlap[experiments]'``).
 ``negative-weights``      NaN/Inf and negative weights over a mesh corpus (Fig. 12)
 ``sphere3``               normals and mean curvature on S^3 in R^4 (Fig. 13/14)
 ``flips``                 sign of the Dirichlet-energy change of 2-3 / 3-2 flips (Sec. 9)
+``improve``               vertex moves that remove negative dual weights (tetlap.improve)
 ========================  ==========================================================
 """
 
@@ -22,12 +23,12 @@ from ._output import Output
 
 __all__ = ["NAMES", "Output", "run"]
 
-NAMES = ("dirichlet-shell", "eigen-ball", "negative-weights", "sphere3", "flips")
+NAMES = ("dirichlet-shell", "eigen-ball", "negative-weights", "sphere3", "flips", "improve")
 
 
 def run(name: str, *, quick: bool = False, out=None, seed: int = 0, meshes=None) -> pathlib.Path:
     """Run experiment ``name``; return the folder with its CSV, PNG and summary."""
-    from . import eigen_ball, flips, negative_weights, shell, sphere3
+    from . import eigen_ball, flips, improve, negative_weights, shell, sphere3
 
     runners = {
         "dirichlet-shell": shell.run,
@@ -35,11 +36,12 @@ def run(name: str, *, quick: bool = False, out=None, seed: int = 0, meshes=None)
         "negative-weights": negative_weights.run,
         "sphere3": sphere3.run,
         "flips": flips.run,
+        "improve": improve.run,
     }
     if name not in runners:
         raise ValueError(f"unknown experiment {name!r}; choose one of {', '.join(NAMES)}")
     output = Output(name, out, quick, seed)
-    if name == "negative-weights":
+    if name in ("negative-weights", "improve"):
         runners[name](output, meshes=meshes)
     else:
         runners[name](output)

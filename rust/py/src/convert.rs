@@ -93,7 +93,8 @@ impl Input {
         Ok(Input { points, dim, cells, weights })
     }
 
-    fn mesh<'a, S: Simplex>(&'a self, cells: &'a [S::Cell]) -> tetlap::Result<Mesh<'a, S>> {
+    /// The validated mesh of `cells` (this input's), with its vertex weights.
+    pub fn mesh<'a, S: Simplex>(&'a self, cells: &'a [S::Cell]) -> tetlap::Result<Mesh<'a, S>> {
         let mesh = Mesh::new(&self.points, self.dim, cells)?;
         match &self.weights {
             Some(w) => mesh.with_weights(w),

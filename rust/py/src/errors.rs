@@ -142,6 +142,14 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             };
             raise(py, &c.option, format!("{option} applies to tet meshes only, not {element} meshes"), &[])
         }
+        Error::NonFiniteCotangent { index, .. } => {
+            raise(py, &c.non_finite, e.to_string(), &[("index", i(index))])
+        }
+        Error::NotDifferentiable { what } => {
+            let what = what.replace("Boundary::Barycentric", "boundary=\"barycentric\"");
+            let what = what.replace("Boundary::Circumcentric", "boundary=\"circumcentric\"");
+            raise(py, &c.option, format!("derivatives of {what} are not available"), &[])
+        }
         Error::Cancelled => PyKeyboardInterrupt::new_err("cancelled"),
     }
 }

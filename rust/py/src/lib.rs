@@ -7,6 +7,7 @@
 //! conversions and SciPy wrapping, is the Python package `tetlap`.
 
 mod convert;
+mod derivatives;
 mod diagnostics;
 mod errors;
 mod mesh;
@@ -28,6 +29,8 @@ mod _core {
 
     #[pymodule_export]
     use crate::diagnostics::{check_operator, duplicates, edges, faces, negative_semidefinite, non_delaunay, quality};
+    #[pymodule_export]
+    use crate::derivatives::vjp;
 
     type Points<'py> = PyReadonlyArray2<'py, f64>;
     type Cells<'py> = PyReadonlyArray2<'py, i64>;

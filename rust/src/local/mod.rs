@@ -7,6 +7,7 @@
 
 mod careful;
 mod centers;
+pub mod derivatives;
 mod dual;
 mod mass;
 mod primal;

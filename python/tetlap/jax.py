@@ -1,0 +1,180 @@
+"""JAX adapter: tetlap's operators as differentiable JAX functions (``jax.custom_vjp``).
+
+``jax.grad`` (and ``jax.jit``, ``jax.value_and_grad``, ...) work through these functions
+with respect to the vertex positions ``V`` and, for a weighted dual, the vertex weights.
+The forward pass and the backward pass run in tetlap's Rust core through
+``jax.pure_callback`` (on the host CPU); the backward pass is :func:`tetlap.vjp`.
+
+The topology ``T`` and the options are static (plain NumPy values, not traced). Enable
+float64 (``jax.config.update("jax_enable_x64", True)``) for tetlap's precision; with
+float32 inputs the results are rounded to float32.
+
+Needs ``jax`` (``pip install 'tetlap[jax]'``).
+
+>>> import jax, jax.numpy as jnp, tetlap, tetlap.jax  # doctest: +SKIP
+>>> jax.config.update("jax_enable_x64", True)  # doctest: +SKIP
+>>> V, T = tetlap.meshes.cube(3, jitter=0.2)  # doctest: +SKIP
+>>> E = tetlap.jax.edges(T)  # the order of the edge weights  # doctest: +SKIP
+>>> f = jnp.asarray(V[:, 0] ** 2)  # doctest: +SKIP
+>>> def energy(V):  # -f^T L f = sum_ij w_ij (f_i - f_j)^2  # doctest: +SKIP
+...     w, m = tetlap.jax.operators(V, T, "dual", "circumcentric")
+...     return jnp.sum(w * (f[E[:, 0]] - f[E[:, 1]]) ** 2) + jnp.sum(m)
+>>> g = jax.grad(energy)(jnp.asarray(V))  # (n, 3), equal to tetlap's own gradient  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+try:
+    import jax
+    import jax.numpy as jnp
+    from jax.experimental import sparse as jsparse
+except ImportError as e:  # pragma: no cover - exercised only without the extra
+    raise ImportError("tetlap.jax needs jax: pip install 'tetlap[jax]'") from e
+
+from . import _arrays, assembly, diagnostics
+from .derivatives import vjp
+from .errors import OptionError
+
+__all__ = ["edges", "operators", "edge_weights", "mass", "laplacian"]
+
+_LUMPED = ("barycentric", "circumcentric")
+
+
+def edges(T) -> np.ndarray:
+    """The unique edges ``(E, 2)`` int64, ``i < j``, sorted: the order of the weights of
+    :func:`operators` and :func:`edge_weights` (that of :func:`tetlap.edge_weights`)."""
+    return diagnostics.mesh_edges(_arrays.elements(T, 4))
+
+
+def _upper(L) -> np.ndarray:
+    """The strictly upper entries of a canonical CSR array, in CSR order."""
+    rows = np.repeat(np.arange(L.shape[0]), np.diff(L.indptr))
+    return L.data[L.indices > rows]
+
+
+def _function(T, kind, mass_kind, weighted, opts):
+    """The custom_vjp function ``(V, omega) -> (w, m)`` of one mesh and option set."""
+    T = _arrays.elements(T, 4)
+    edges_ = diagnostics.mesh_edges(T)
+    n_edges = len(edges_)
+    want_lap, want_mass = kind is not None, mass_kind is not None
+    if want_mass and mass_kind not in _LUMPED:
+        raise OptionError(f"the adapters give lumped masses: mass must be \"barycentric\" or "
+                          f"\"circumcentric\", got {mass_kind!r}")
+
+    def host_forward(V, omega):
+        V = np.asarray(V, dtype=np.float64)
+        w = np.asarray(omega, dtype=np.float64) if weighted else None
+        n = V.shape[0]
+        if want_lap and want_mass:
+            L, M = assembly.operators(V, T, kind, mass_kind, weights=w, **opts)
+        elif want_lap:
+            L, M = assembly.laplacian(V, T, kind, weights=w, **opts), None
+        else:
+            L, M = None, assembly.mass(V, T, mass_kind, weights=w, **opts)
+        we = _upper(L) if L is not None else np.zeros(n_edges)
+        m = M.diagonal() if M is not None else np.zeros(n)
+        return we.astype(V.dtype), m.astype(V.dtype)
+
+    def host_backward(V, omega, dw, dm):
+        V64 = np.asarray(V, dtype=np.float64)
+        w = np.asarray(omega, dtype=np.float64) if weighted else None
+        g = vjp(V64, T, kind if want_lap else "primal",
+                mass_kind if want_mass else "barycentric",
+                dL=(edges_, np.asarray(dw, dtype=np.float64)) if want_lap else None,
+                dM=np.asarray(dm, dtype=np.float64) if want_mass else None,
+                weights=w, **opts)
+        dom = g.dweights if g.dweights is not None else np.zeros(V64.shape[0])
+        return g.dV.astype(np.asarray(V).dtype), dom.astype(np.asarray(omega).dtype)
+
+    def shapes(V):
+        return (jax.ShapeDtypeStruct((n_edges,), V.dtype),
+                jax.ShapeDtypeStruct((V.shape[0],), V.dtype))
+
+    @jax.custom_vjp
+    def f(V, omega):
+        return jax.pure_callback(host_forward, shapes(V), V, omega)
+
+    def f_fwd(V, omega):
+        return f(V, omega), (V, omega)
+
+    def f_bwd(residuals, cotangents):
+        V, omega = residuals
+        dw, dm = cotangents
+        out = (jax.ShapeDtypeStruct(V.shape, V.dtype),
+               jax.ShapeDtypeStruct(omega.shape, omega.dtype))
+        return jax.pure_callback(host_backward, out, V, omega, dw, dm)
+
+    f.defvjp(f_fwd, f_bwd)
+    return f
+
+
+def _call(V, T, kind, mass_kind, weights, boundary, degenerate, threads):
+    V = jnp.asarray(V)
+    if V.ndim != 2:
+        raise OptionError(f"V must have shape (n, d), got {V.shape}")
+    weighted = weights is not None
+    omega = jnp.asarray(weights, dtype=V.dtype) if weighted else jnp.zeros(V.shape[0], V.dtype)
+    opts = {"boundary": boundary, "degenerate": degenerate, "threads": threads}
+    return _function(T, kind, mass_kind, weighted, opts)(V, omega)
+
+
+def operators(V, T, kind="primal", mass="barycentric", *, weights=None,
+              boundary="circumcentric", degenerate="raise", threads=None):
+    """Edge weights and lumped masses, differentiable with respect to ``V`` and
+    ``weights``.
+
+    Parameters
+    ----------
+    V : (n, d) JAX or NumPy array (traced or not)
+    T : (m, 4) integer NumPy array (static)
+    kind : {"primal", "dual"} or float t in [0, 1]
+        The Laplacian, as for :func:`tetlap.laplacian`.
+    mass : {"barycentric", "circumcentric"}
+        A lumped mass, as for :func:`tetlap.mass`.
+    weights : (n,) array, optional
+        Vertex weights of a weighted dual (differentiable).
+    boundary, degenerate, threads
+        As for :func:`tetlap.laplacian`.
+
+    Returns
+    -------
+    w : (E,) array
+        ``w[e] = L[i, j]`` for the edges ``(i, j)`` of :func:`edges` (the same order).
+    m : (n,) array
+        The diagonal of ``M``.
+    """
+    return _call(V, T, kind, mass, weights, boundary, degenerate, threads)
+
+
+def edge_weights(V, T, kind="primal", *, weights=None, boundary="circumcentric",
+                 degenerate="raise", threads=None):
+    """The summed edge weights ``(E,)`` on the edges of :func:`edges` (differentiable)."""
+    return _call(V, T, kind, None, weights, boundary, degenerate, threads)[0]
+
+
+def mass(V, T, kind="barycentric", *, weights=None, boundary="circumcentric",
+         degenerate="raise", threads=None):
+    """The lumped mass diagonal ``(n,)`` (differentiable)."""
+    return _call(V, T, None, kind, weights, boundary, degenerate, threads)[1]
+
+
+def laplacian(V, T, kind="primal", *, weights=None, boundary="circumcentric",
+              degenerate="raise", threads=None):
+    """The Laplacian as a ``jax.experimental.sparse.BCOO`` (n, n) matrix (differentiable
+    in its values): ``L[i, j] = w_ij``, ``L[i, i] = -sum_j w_ij``, paper Eq. 1.
+
+    Entries: the edges ``(i, j)`` of :func:`edges`, then ``(j, i)``, then the diagonal.
+    """
+    V = jnp.asarray(V)
+    n = V.shape[0]
+    E = edges(T)
+    w = edge_weights(V, T, kind, weights=weights, boundary=boundary, degenerate=degenerate,
+                     threads=threads)
+    diag = -(jax.ops.segment_sum(w, E[:, 0], n) + jax.ops.segment_sum(w, E[:, 1], n))
+    data = jnp.concatenate([w, w, diag])
+    ii = np.arange(n)
+    idx = np.concatenate([E, E[:, ::-1], np.column_stack([ii, ii])])
+    return jsparse.BCOO((data, jnp.asarray(idx)), shape=(n, n))
