@@ -3,7 +3,6 @@ errors of both."""
 
 from __future__ import annotations
 
-import doctest
 import types
 import warnings
 
@@ -283,9 +282,3 @@ def test_read_of_a_mesh_object_is_from_mesh(cube):
     with pytest.warns(UserWarning, match="triangle"):
         assert_same(cube, tetlap.io.read(mesh))
 
-
-def test_docstring_examples_run(tmp_path, monkeypatch):
-    pytest.importorskip("pyvista")
-    monkeypatch.chdir(tmp_path)
-    result = doctest.testmod(tetlap.io, optionflags=doctest.ELLIPSIS)
-    assert result.attempted > 10 and result.failed == 0

@@ -203,6 +203,7 @@ def weighted_ball(n: int = 2000, weight_scale: float = 0.0, *, seed: int = 0):
 
     Example
     -------
+    >>> import tetlap
     >>> V, T = weighted_ball(500, 1.0, seed=0)
     >>> bool(tetlap.diagnostics.non_delaunay_tets(V, T).mean() > 0.05)
     True

@@ -182,7 +182,7 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     Examples
     --------
     >>> import tetlap
-    >>> V, T = tetlap.meshes.weighted_ball(600, 1.0, seed=1)
+    >>> V, T = tetlap.meshes.weighted_ball(600, 0.5, seed=1)
     >>> r = tetlap.check(tetlap.laplacian(V, T, "dual"), V, T)
     >>> r.nsd, r.n_negative_interior > 0
     (False, True)
