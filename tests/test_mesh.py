@@ -1,4 +1,4 @@
-"""tetlap.Mesh: cached topology, updates equal to fresh assembly to the last bit."""
+"""tetlap.mesh (tetlap.Mesh): cached topology, updates equal to fresh assembly to the last bit."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""tetlap.check: every line of the report can fail, and says why."""
+"""tetlap.properties (tetlap.check): every line of the report can fail, and says why."""
 
 from __future__ import annotations
 
