@@ -282,3 +282,13 @@ def test_read_of_a_mesh_object_is_from_mesh(cube):
     with pytest.warns(UserWarning, match="triangle"):
         assert_same(cube, tetlap.io.read(mesh))
 
+
+
+def test_io_roundtrip_and_dropped_cells(tmp_path):
+    V, T = tetlap.meshes.cube(2)
+    path = tmp_path / "mixed.vtu"
+    meshio.Mesh(V, [("tetra", T), ("triangle", T[:3, :3])]).write(path)
+    with pytest.warns(UserWarning, match="triangle"):
+        V2, T2 = tetlap.io.read(path)
+    np.testing.assert_array_equal(T2, T)
+    np.testing.assert_allclose(V2, V)
