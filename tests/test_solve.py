@@ -111,7 +111,8 @@ def test_primal_kkt_gradient_constraints_reproduce_linear_functions(ball):
     assert np.abs(f - (u - u.mean())).max() < 1e-9
 
 
-@pytest.mark.parametrize("kind, bound", [("primal", 0.02), ("dual", 0.02), ("primal-kkt", 0.15)])
+@pytest.mark.parametrize("kind, bound", [("primal", 0.02), ("dual", 0.02),
+                                         pytest.param("primal-kkt", 0.15, marks=pytest.mark.slow)])
 def test_neumann_harmonic_quadratic_converges(kind, bound):
     """u = x^2 - y^2 (harmonic) on the ball from its normal derivative.
 
