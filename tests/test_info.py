@@ -77,9 +77,10 @@ def delaunay_bounds(V, T, keys, inverse, counts, tet, corner):
     starts = np.concatenate([[0], np.cumsum(counts)])[:-1]
     pairs = counts == 2
     first, second = order[starts[pairs]], order[starts[pairs] + 1]
-    t1, t2 = tet[first], tet[second]
-    t1, t2, o2 = np.minimum(t1, t2), np.maximum(t1, t2), None
-    o2 = np.where(tet[second] == t2, corner[second], corner[first])
+    # the tet with the lower index is "the first" (as in tetlap.diagnostics.interior_faces)
+    swap = tet[first] > tet[second]
+    first, second = np.where(swap, second, first), np.where(swap, first, second)
+    t1, t2, o2 = tet[first], tet[second], corner[second]
     c, r2 = circumspheres(V[T[t1]])
     d2 = ((V[T[t2, o2]] - c) ** 2).sum(axis=1)
     margin = (r2 - d2) / r2
@@ -117,6 +118,7 @@ def assert_mesh_summary(V, T, m):
     near_zero = (np.abs(vol) <= 1e-10 * mean).sum()
     assert abs(m["n_positive_tets"] - (vol > 0).sum()) <= near_zero
     assert abs(m["n_negative_tets"] - (vol < 0).sum()) <= near_zero
+    assert m["n_positive_tets"] + m["n_negative_tets"] == len(T) - (vol == 0).sum()
     assert (np.abs(vol) <= 1e-13 * mean).sum() <= m["n_degenerate_tets"] <= near_zero
     assert m["mesh_volume"] == pytest.approx(np.abs(vol).sum(), rel=1e-9)
     used = np.unique(T)
