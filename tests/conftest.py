@@ -10,7 +10,14 @@ from __future__ import annotations
 import os
 import pathlib
 
-import numpy as np
+# Dense eigenvalues (the NSD checks) on one BLAS thread: tetlap's own threads and a
+# shared machine make OpenBLAS's threads spin against each other (2000 x 2000 eigvalsh:
+# 1.5 s on one thread, 5-7 s on two under load). Set before NumPy is imported; the
+# `tetlap` subprocesses of test_cli / test_benchmark inherit it. Override from outside.
+for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent

@@ -1,4 +1,9 @@
-"""The tetlap command: info, assemble, bench (smoke), also as python -m tetlap."""
+"""The tetlap command (also python -m tetlap): parsing, printing and exit codes.
+
+The numbers it prints are tested where they are computed (test_info.py, test_assembly.py,
+test_benchmark.py, test_experiments.py); here: what reaches stdout and stderr, and how.
+Most tests call ``cli.main`` in-process; a few run ``python -m tetlap`` as users do.
+"""
 
 from __future__ import annotations
 
@@ -12,10 +17,7 @@ import scipy.sparse as sp
 
 import tetlap
 import tetlap.io
-from tetlap import cli, diagnostics
-from tetlap.meshes import orient
-
-from conftest import real_mesh_paths
+from tetlap import cli
 
 
 def run(*args):
@@ -23,33 +25,71 @@ def run(*args):
                           text=True, timeout=600)
 
 
+@pytest.fixture
+def cube_file(tmp_path):
+    pytest.importorskip("meshio")
+    V, T = tetlap.meshes.cube(3, jitter=0.1)
+    path = tmp_path / "cube.vtu"
+    tetlap.io.write(path, V, T)
+    return path, V, T
+
+
+# ---- tetlap info ----------------------------------------------------------------------
+
+
 def test_info_json_on_the_built_in_mesh():
     out = run("info", "--json")
     assert out.returncode == 0, out.stderr
     result = json.loads(out.stdout)
+    assert result["source"] == cli.BUILT_IN
     for key in ("n_vertices", "n_tets", "n_boundary_vertices", "non_delaunay_face_fraction",
                 "min_dihedral_deg"):
-        assert key in result
+        assert key in result["mesh"]
     for kind in ("primal", "dual"):
         for key in ("symmetric", "max_row_sum", "linear_precision_residual", "nsd",
-                    "min_weight", "negative_weight_fraction",
-                    "negative_weight_fraction_interior", "finite"):
+                    "min_weight", "negative_fraction", "negative_fraction_interior", "finite",
+                    "mass_total", "mesh_volume"):
             assert key in result[kind]
     V, T = tetlap.meshes.ball(2000, seed=0)
-    assert result["n_tets"] == len(T)
-    assert result["non_delaunay_face_fraction"] == 0.0  # a Delaunay mesh
+    assert result["mesh"]["n_tets"] == len(T)
+    assert result["mesh"]["non_delaunay_face_fraction"] == 0.0  # a Delaunay mesh
     assert result["primal"]["nsd"] is True
-    assert result["dual"]["negative_weight_fraction_interior"] == 0.0
+    assert result["dual"]["negative_fraction_interior"] == 0.0
     edges, w = tetlap.edge_weights(V, T, "primal")
     assert result["primal"]["min_weight"] == pytest.approx(w.min(), rel=1e-12)
-    for kind in ("barycentric", "circumcentric"):
-        assert result["mass"][kind]["total"] == pytest.approx(result["mass"]["mesh_volume"])
+    for kind in ("primal", "dual"):
+        assert result[kind]["mass_total"] == pytest.approx(result[kind]["mesh_volume"])
 
 
 def test_info_table_is_human_readable():
-    out = run("info")
+    out = run("info", "--no-nsd")
     assert out.returncode == 0, out.stderr
     assert "negative semidefinite" in out.stdout and "primal" in out.stdout
+    assert "semidefinite (dual): skipped (nsd=False)" in out.stdout
+
+
+def test_info_table_of_a_file(cube_file, capsys):
+    path, V, T = cube_file
+    assert cli.main(["info", str(path)]) == 0
+    out, err = capsys.readouterr()
+    lines = out.splitlines()
+    assert lines[0] == f"mesh: {path}"
+    assert lines[1].startswith(f"{len(V)} vertices (") and f", {len(T)} tets (" in lines[1]
+    header = next(line for line in lines if line.startswith("property"))
+    assert header.split() == ["property", "primal", "dual"]
+    nsd_row = next(line for line in lines if line.startswith("negative semidefinite"))
+    assert nsd_row.split()[-2:] == ["yes", "yes"]  # a Kuhn-type grid: both NSD
+    assert "semidefinite (primal): dense eigenvalues" in out
+    assert "mesh diagnostics" not in out  # progress (if any) goes to stderr
+
+
+def test_info_json_of_a_file_has_only_json_on_stdout(cube_file, capsys):
+    path, V, T = cube_file
+    assert cli.main(["info", str(path), "--json", "--no-nsd"]) == 0
+    out, err = capsys.readouterr()
+    result = json.loads(out)
+    assert result["source"] == str(path) and result["mesh"]["n_tets"] == len(T)
+    assert result["primal"]["nsd"] is None
 
 
 def test_bad_file_is_a_clean_error(tmp_path):
@@ -57,47 +97,26 @@ def test_bad_file_is_a_clean_error(tmp_path):
     assert out.returncode == 2 and "error" in out.stderr and "Traceback" not in out.stderr
 
 
-def test_info_agrees_with_direct_computation_on_every_real_mesh():
-    paths = real_mesh_paths()
-    if not paths:
-        pytest.skip("real-mesh corpus not found (set TETLAP_MESHES)")
-    from conftest import read_mesh
-
-    for path in paths:
-        V, T = read_mesh(path)
-        result = cli.info(V, T, nsd=len(V) <= 3000)
-        assert result["n_tets"] == len(T) and result["n_vertices"] == len(V)
-        for kind in ("primal", "dual"):
-            L = tetlap.laplacian(V, T, kind)
-            assert result[kind]["finite"] and result[kind]["symmetric"], path.name
-            edges, w = tetlap.edge_weights(V, T, kind)
-            assert result[kind]["min_weight"] == w.min(), path.name
-            if result[kind]["nsd"] is not None and kind == "primal":
-                assert result[kind]["nsd"], path.name  # the primal is always NSD
-        assert result["n_positive_tets"] + result["n_negative_tets"] == len(T)
-        flags = diagnostics.non_delaunay_faces(V, T)
-        assert result["non_delaunay_face_fraction"] == (flags.mean() if len(flags) else 0.0)
+def test_unreadable_file_is_one_line_on_stderr(tmp_path, capsys):
+    pytest.importorskip("meshio")
+    path = tmp_path / "noise.msh"
+    path.write_text("this is not a mesh\n")
+    assert cli.main(["info", str(path)]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.startswith("tetlap: error: ") and "noise.msh" in err and err.count("\n") == 1
 
 
-def test_mixed_orientation_file_gives_the_numbers_of_a_reoriented_copy():
-    paths = [p for p in real_mesh_paths() if "mixed_orient" in p.name or "sphshells" in p.name]
-    if not paths:
-        pytest.skip("real-mesh corpus not found (set TETLAP_MESHES)")
-    from conftest import read_mesh
+def test_ctrl_c_exits_130(monkeypatch, capsys):
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
 
-    for path in paths:
-        V, T = read_mesh(path)
-        a, b = cli.info(V, T, nsd=False), cli.info(V, orient(V, T), nsd=False)
-        assert a["n_negative_tets"] > 0 and b["n_negative_tets"] == 0
-        for kind in ("primal", "dual"):
-            for key, value in a[kind].items():
-                if key in ("max_row_sum", "linear_precision_residual"):
-                    continue  # rounding noise, checked relative to max|L| elsewhere
-                elif isinstance(value, float):
-                    assert b[kind][key] == pytest.approx(value, rel=1e-9, abs=1e-15), key
-                else:
-                    assert b[kind][key] == value, key
-        assert a["non_delaunay_face_fraction"] == b["non_delaunay_face_fraction"]
+    monkeypatch.setattr(tetlap.info, "report", interrupted)
+    assert cli.main(["info"]) == 130
+    assert capsys.readouterr().err == "tetlap: interrupted\n"
+
+
+# ---- tetlap assemble ------------------------------------------------------------------
 
 
 def test_assemble_writes_load_npz_files(tmp_path):
@@ -113,29 +132,99 @@ def test_assemble_writes_load_npz_files(tmp_path):
     assert abs(M - tetlap.mass(V, T, "fem")).max() == 0
 
 
-def test_io_roundtrip_and_dropped_cells(tmp_path):
-    import meshio
-
-    V, T = tetlap.meshes.cube(2)
-    path = tmp_path / "mixed.vtu"
-    meshio.Mesh(V, [("tetra", T), ("triangle", T[:3, :3])]).write(path)
-    with pytest.warns(UserWarning, match="triangle"):
-        V2, T2 = tetlap.io.read(path)
-    np.testing.assert_array_equal(T2, T)
-    np.testing.assert_allclose(V2, V)
-
-
-def test_bench_quick_smoke():
-    out = run("bench", "--sizes", "10k", "--repeat", "1", "--quick", "--json")
-    assert out.returncode == 0, out.stderr
-    records = json.loads(out.stdout)
-    cases = {r["case"] for r in records}
-    assert {"floor", "tetlap primal", "tetlap dual", "Mesh: update 20 vertices"} <= cases
-    assert all(r["median_s"] > 0 for r in records)
+def test_assemble_defaults_an_affine_kind_and_the_output_names(cube_file, tmp_path, capsys):
+    path, V, T = cube_file
+    assert cli.output_names("ops") == ("ops.npz", "ops.mass.npz")
+    assert cli.output_names("ops.npz") == ("ops.npz", "ops.mass.npz")
+    assert cli.main(["assemble", str(path), "-o", str(tmp_path / "a")]) == 0  # dual + circ.
+    L, M = sp.load_npz(tmp_path / "a.npz"), sp.load_npz(tmp_path / "a.mass.npz")
+    assert (L != tetlap.laplacian(V, T, "dual")).nnz == 0
+    assert (M != tetlap.mass(V, T, "circumcentric")).nnz == 0
+    assert cli.main(["assemble", str(path), "-o", str(tmp_path / "b.npz"), "--laplacian", "0.25"]) == 0
+    assert (sp.load_npz(tmp_path / "b.npz") != tetlap.laplacian(V, T, 0.25)).nnz == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == f"L (dual, {len(V)} x {len(V)}, {L.nnz} entries) -> {tmp_path / 'a.npz'}"
+    assert out[1] == f"M (circumcentric) -> {tmp_path / 'a.mass.npz'}"
 
 
-def test_bench_operator_filter():
-    out = run("bench", "--sizes", "10k", "--repeat", "1", "--quick", "--json", "--operators", "dual")
-    assert out.returncode == 0, out.stderr
-    cases = {r["case"] for r in json.loads(out.stdout)}
-    assert "tetlap dual" in cases and "tetlap primal" not in cases and "floor" in cases
+def test_assemble_errors_are_exit_code_2(cube_file, tmp_path, capsys):
+    path, V, T = cube_file
+    assert cli.main(["assemble", str(path), "-o", str(tmp_path / "x"), "--laplacian", "cotan"]) == 2
+    assert "tetlap: error: " in capsys.readouterr().err
+    flat = tmp_path / "flat.vtu"
+    tetlap.io.write(flat, V, np.vstack([T, [[0, 4, 16, 20]]]))  # four vertices on z = 0
+    assert cli.main(["assemble", str(flat), "-o", str(tmp_path / "y")]) == 2
+    assert "degenerate" in capsys.readouterr().err
+    assert cli.main(["assemble", str(flat), "-o", str(tmp_path / "y"), "--degenerate", "skip"]) == 0
+    assert not (tmp_path / "x.npz").exists()
+
+
+# ---- parsing --------------------------------------------------------------------------
+
+
+def test_version_and_help():
+    out = run("--version")
+    assert out.returncode == 0 and out.stdout.strip() == f"tetlap {tetlap.__version__}"
+    out = run("--help")
+    assert out.returncode == 0
+    for command in ("info", "assemble", "bench", "experiment", "distributed-info"):
+        assert command in out.stdout
+
+
+@pytest.mark.parametrize("argv, message", [
+    ([], "required"),
+    (["frobnicate"], "invalid choice"),
+    (["assemble", "m.vtu"], "-o/--output"),
+    (["assemble", "m.vtu", "-o", "x", "--mass", "voronoi"], "invalid choice"),
+    (["bench", "--threads", "0"], "must be between 1 and"),
+    (["bench", "--threads", "9999"], "must be between 1 and"),
+    (["bench", "--repeat", "0"], "must be at least 1"),
+    (["bench", "--sizes", "5k"], "invalid choice"),
+    (["experiment", "nonsense"], "invalid choice"),
+    (["experiment", "flips", "--meshes", "/no/such/folder"], "no such folder"),
+])
+def test_bad_arguments_are_usage_errors(argv, message, capsys):
+    with pytest.raises(SystemExit) as e:
+        cli.main(argv)
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: tetlap") and message in err
+
+
+def test_the_parser_knows_the_defaults():
+    args = cli.parser().parse_args(["assemble", "m.vtu", "-o", "x"])
+    assert (args.laplacian, args.mass, args.degenerate) == ("dual", "circumcentric", "raise")
+    args = cli.parser().parse_args(["bench", "--threads", str(tetlap.MAX_THREADS)])
+    assert args.threads == tetlap.MAX_THREADS and args.quick is False and args.repeat is None
+    args = cli.parser().parse_args(["experiment", "flips", "--quick", "--seed", "3"])
+    assert (args.name, args.quick, args.seed, args.out) == ("flips", True, 3, None)
+
+
+# ---- tetlap experiment, distributed-info ----------------------------------------------
+
+
+def test_experiment_prints_the_summary_and_the_files(monkeypatch, tmp_path, capsys):
+    from tetlap import experiments
+
+    folder = tmp_path / "flips"
+    folder.mkdir()
+    (folder / "summary.txt").write_text("the summary\n")
+    (folder / "results.csv").write_text("a,b\n")
+    calls = []
+
+    def fake_run(name, **kwargs):
+        calls.append((name, kwargs))
+        return folder
+
+    monkeypatch.setattr(experiments, "run", fake_run)
+    assert cli.main(["experiment", "flips", "--quick", "--seed", "2", "--out", str(folder)]) == 0
+    assert calls == [("flips", {"quick": True, "out": str(folder), "seed": 2, "meshes": None})]
+    out = capsys.readouterr().out
+    assert out == f"the summary\nfiles: results.csv, summary.txt in {folder}\n"
+
+
+def test_distributed_info_without_mpi4py_is_exit_code_2(monkeypatch, tmp_path, capsys):
+    monkeypatch.setitem(sys.modules, "mpi4py", None)
+    assert cli.main(["distributed-info", str(tmp_path / "p.npy"), str(tmp_path / "t.npy")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("tetlap: error: ") and "mpi4py" in err

@@ -23,7 +23,9 @@ def folded_vertices(V, T):
     if len(tets) == 0:
         return mask
     # the shared face's vertices, from the first tet's corners other than its opposite one
-    shared = np.array([[v for v in T[a] if v != o] for a, o in zip(tets[:, 0], opposite[:, 0])])
+    # (in corner order: the mask keeps three entries per row)
+    first = T[tets[:, 0]]
+    shared = first[first != opposite[:, :1]].reshape(-1, 3)
     e1, e2 = V[shared[:, 1]] - V[shared[:, 0]], V[shared[:, 2]] - V[shared[:, 0]]
     n = np.cross(e1, e2)
     side = lambda p: np.sign(np.einsum("ij,ij->i", n, V[p] - V[shared[:, 0]]))
@@ -96,7 +98,8 @@ def test_barycentric_boundary_guarantees_on_real_meshes(real_mesh):
     weights and non-negative dual-cell volumes, however bad the mesh."""
     name, V, T = real_mesh
     F = np.sort(tetlap.diagnostics.faces(T), axis=1)
-    _, inverse, counts = np.unique(F, axis=0, return_inverse=True, return_counts=True)
+    key = (F[:, 0] * len(V) + F[:, 1]) * len(V) + F[:, 2]  # one integer per sorted face
+    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
     fixed = (counts[inverse.ravel()] == 1).reshape(-1, 4).any(axis=1)
     W = tetlap.tet_contributions(V, T[fixed], "dual", boundary="barycentric")
     assert W.min() >= -1e-12 * np.abs(W).max(), name

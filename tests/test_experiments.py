@@ -1,4 +1,6 @@
-"""Smoke runs of every experiment (quick sizes) and the robust facts they show."""
+"""Smoke runs of every experiment (quick sizes) and the robust facts they show.
+
+The runs that take more than a few seconds are marked slow (`.ci/run` runs them)."""
 
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ def run(name, tmp_path, **kw):
     return folder
 
 
+@pytest.mark.slow
 def test_dirichlet_shell(tmp_path):
     folder = run("dirichlet-shell", tmp_path)
     data = rows(folder)
@@ -35,6 +38,7 @@ def test_dirichlet_shell(tmp_path):
     assert "median variance ratio" in (folder / "summary.txt").read_text()
 
 
+@pytest.mark.slow
 def test_eigen_ball(tmp_path):
     data = rows(run("eigen-ball", tmp_path))
     mine = [r for r in data if r["family"] == "random Delaunay" and r["laplacian"] == "primal"
@@ -50,6 +54,7 @@ def test_negative_weights_built_in(tmp_path):
     assert float(ball["negative_fraction_dual"]) == 0.0 < float(ball["negative_fraction_primal"])
 
 
+@pytest.mark.slow
 def test_negative_weights_on_a_folder(tmp_path):
     if not MESH_DIR.is_dir():
         pytest.skip(f"real-mesh corpus not found at {MESH_DIR}")
@@ -69,6 +74,7 @@ def test_sphere3(tmp_path):
     assert all(float(r["min_weight_dual"]) > 0 for r in data)
 
 
+@pytest.mark.slow
 def test_flips(tmp_path):
     data = rows(run("flips", tmp_path))
     assert all(float(r["rank_gap_dual"]) < 1e-6 and float(r["rank_gap_primal"]) < 1e-6 for r in data)

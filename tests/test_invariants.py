@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial import Delaunay
@@ -29,12 +28,26 @@ def non_delaunay():
     return V, T
 
 
-MESHES = {"cube": jittered_cube, "ball": random_ball, "non_delaunay": non_delaunay}
+def weighted_ball():
+    """A regular triangulation with large weights: a non-Delaunay ball whose dual
+    Laplacian is indefinite (dense eigenvalues: lambda_min(-L) = -0.12 lambda_max)."""
+    return tetlap.meshes.weighted_ball(600, 0.5, seed=1)
+
+
+MESHES = {"cube": jittered_cube, "ball": random_ball, "non_delaunay": non_delaunay,
+          "weighted_ball": weighted_ball}
+#: The meshes of MESHES whose dual Laplacian is indefinite.
+INDEFINITE_DUAL = {"weighted_ball"}
 
 
 @pytest.fixture(params=list(MESHES))
-def mesh(request):
-    return MESHES[request.param]()
+def mesh_name(request):
+    return request.param
+
+
+@pytest.fixture
+def mesh(mesh_name):
+    return MESHES[mesh_name]()
 
 
 def scale_of(L):
@@ -56,11 +69,18 @@ def test_symmetric_zero_row_sums_and_linear_precision(mesh, kind):
     assert np.abs((L @ V)[~interior]).max() > 1e-3 * s
 
 
-def test_primal_is_negative_semidefinite_and_dual_is_not_always(mesh):
+def test_primal_is_negative_semidefinite_and_dual_is_not_always(mesh, mesh_name):
     V, T = mesh
     lam = np.linalg.eigvalsh(-tetlap.laplacian(V, T, "primal").toarray())
     assert lam[0] >= -1e-12 * lam[-1]
     assert abs(lam[0]) <= 1e-12 * lam[-1]  # constants are in the null space
+    # the dual on the same mesh: constants in its null space too (zero row sums), and
+    # on the non-Delaunay weighted ball a clearly negative eigenvalue of -L
+    lam_d = np.linalg.eigvalsh(-tetlap.laplacian(V, T, "dual").toarray())
+    assert np.abs(lam_d).min() <= 1e-12 * np.abs(lam_d).max()
+    if mesh_name in INDEFINITE_DUAL:
+        assert lam_d[0] < -1e-2 * lam_d[-1]
+        assert tetlap.diagnostics.non_delaunay_faces(V, T).any()
 
 
 def test_dual_indefinite_with_boundary_primal_never():
@@ -139,57 +159,6 @@ def test_immersed_in_r4_gives_the_same_operators(mesh, rng):
     for kind in ("barycentric", "circumcentric"):
         np.testing.assert_allclose(tetlap.mass(V4, T, kind).diagonal(),
                                    tetlap.mass(V, T, kind).diagonal(), rtol=1e-10, atol=1e-15)
-
-
-def test_bitwise_identical_for_any_thread_count(mesh):
-    V, T = mesh
-
-    def arrays(threads):
-        L, M = tetlap.operators(V, T, "dual", "circumcentric", threads=threads)
-        F = tetlap.mass(V, T, "fem", threads=threads)
-        P = tetlap.laplacian(V, T, "primal", threads=threads)
-        e, w = tetlap.edge_weights(V, T, "dual", threads=threads)
-        return [L.data, L.indices, L.indptr, M.data, F.data, P.data, w,
-                tetlap.triplets(V, T, threads=threads).vals]
-
-    reference = arrays(1)
-    for threads in (2, 4, None):
-        for a, b in zip(reference, arrays(threads)):
-            assert a.tobytes() == b.tobytes()
-
-
-def test_all_routes_agree(mesh):
-    V, T = mesh
-    L = tetlap.laplacian(V, T, "dual")
-    L2, M2 = tetlap.operators(V, T, laplacian="dual", mass="circumcentric")
-    assert (L != L2).nnz == 0
-    assert (M2 != tetlap.mass(V, T, "circumcentric")).nnz == 0
-    r, c, v, shape = tetlap.triplets(V, T, "dual")
-    assert len(v) == 16 * len(T)
-    assert abs(sp.coo_array((v, (r, c)), shape=shape).tocsr() - L).max() <= 1e-14 * scale_of(L)
-    edges, w = tetlap.edge_weights(V, T, "dual")
-    np.testing.assert_array_equal(w, L[edges[:, 0], edges[:, 1]])
-    W = tetlap.tet_contributions(V, T, "dual")
-    local = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
-    rows = np.concatenate([T[:, a] for a, b in local])
-    cols = np.concatenate([T[:, b] for a, b in local])
-    summed = sp.coo_array((W.T.ravel(), (rows, cols)), shape=L.shape).tocsr()
-    summed = summed + summed.T
-    assert abs(summed - (L - sp.diags_array(L.diagonal()))).max() <= 1e-14 * scale_of(L)
-
-
-def test_csr_layout_is_canonical(mesh):
-    V, T = mesh
-    L = tetlap.laplacian(V, T, "dual")
-    assert L.format == "csr" and L.dtype == np.float64
-    assert L.has_sorted_indices
-    copy = L.copy()
-    copy.sum_duplicates()
-    copy.sort_indices()
-    np.testing.assert_array_equal(copy.indices, L.indices)
-    np.testing.assert_array_equal(copy.indptr, L.indptr)
-    edges = tetlap.diagnostics.mesh_edges(T)
-    assert L.nnz == len(V) + 2 * len(edges)
 
 
 @settings(max_examples=25, deadline=None)

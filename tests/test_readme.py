@@ -47,3 +47,24 @@ def test_readme_block_runs_as_written(kind, code):
     out: list[str] = []
     runner.run(test, out=out.append)
     assert runner.failures == 0, "".join(out)
+
+
+def test_the_bad_input_table_cites_tests_that_exist():
+    """Every ``[test_x, ...]`` of the table names a test file of this suite (or a Rust
+    test file), and every row cites at least one or says ``[untested: why]``."""
+    text = README.read_text()
+    table = text.split("<!-- bad-input-table -->")[1].split("<!-- /bad-input-table -->")[0]
+    rows = [r for r in table.splitlines() if r.startswith("| ") and not r.startswith("| input")]
+    assert len(rows) >= 20
+    here = pathlib.Path(__file__).parent
+    for row in rows:
+        if re.search(r"\[untested: [^\]]+\]", row):
+            continue
+        cited = re.findall(r"\[(?:Rust: )?([\w, .]+)\]", row)
+        names = [n.strip() for group in cited for n in group.split(",")]
+        assert names, f"no test cited: {row}"
+        for name in names:
+            if name.endswith(".rs"):
+                assert (here.parent / "rust" / "tests" / name).exists(), (name, row)
+            else:
+                assert (here / f"{name}.py").exists(), (name, row)

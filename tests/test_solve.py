@@ -111,6 +111,7 @@ def test_primal_kkt_gradient_constraints_reproduce_linear_functions(ball):
     assert np.abs(f - (u - u.mean())).max() < 1e-9
 
 
+@pytest.mark.slow  # a convergence study to 6000 vertices (the KKT one: 35-40 s alone)
 @pytest.mark.parametrize("kind, bound", [("primal", 0.02), ("dual", 0.02), ("primal-kkt", 0.15)])
 def test_neumann_harmonic_quadratic_converges(kind, bound):
     """u = x^2 - y^2 (harmonic) on the ball from its normal derivative.

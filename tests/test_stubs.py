@@ -8,6 +8,7 @@ import sys
 import pytest
 
 
+@pytest.mark.slow  # mypy's stubtest: 10-15 s
 def test_core_stub_matches_the_runtime_module():
     pytest.importorskip("mypy")
     out = subprocess.run([sys.executable, "-m", "mypy.stubtest", "tetlap._core"],

@@ -11,7 +11,7 @@ Sign convention (paper Eq. 1): ``L[i, j] = w_ij`` on edges, ``L[i, i] = -sum_j w
 >>> V, T = tetlap.meshes.cube(3)
 >>> L = tetlap.laplacian(V, T, kind="dual")
 >>> M = tetlap.mass(V, T, kind="circumcentric")
->>> L.shape, round(M.sum(), 12)
+>>> L.shape, round(float(M.sum()), 12)
 ((64, 64), 1.0)
 """
 

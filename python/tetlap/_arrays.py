@@ -101,9 +101,10 @@ def vertex_weights(w, n: int) -> np.ndarray | None:
     return np.ascontiguousarray(arr, dtype=np.float64)
 
 
-def matrix(A, n: int | None = None, name: str = "L") -> sp.csr_array:
+def matrix(A, n: int | None = None, name: str = "L", finite: bool = True) -> sp.csr_array:
     """``A`` as a new float64 ``(n, n)`` csr_array with summed duplicates and sorted
-    indices: a SciPy sparse array or matrix (or a dense 2-D array), square, finite."""
+    indices: a SciPy sparse array or matrix (or a dense 2-D array), square, and finite
+    unless ``finite=False`` (a checker that reports non-finite entries)."""
     if not (sp.issparse(A) or isinstance(A, np.ndarray)):
         raise TypeError(f"{name} must be a SciPy sparse array or matrix, got {type(A).__name__}")
     if isinstance(A, np.ndarray) and A.dtype.kind not in "fiub":
@@ -116,8 +117,8 @@ def matrix(A, n: int | None = None, name: str = "L") -> sp.csr_array:
         raise ShapeError(f"{name} has shape {A.shape}, expected {expected}")
     A.sum_duplicates()
     A.sort_indices()
-    bad = np.flatnonzero(~np.isfinite(A.data))
-    if bad.size:
+    bad = np.flatnonzero(~np.isfinite(A.data)) if finite else ()
+    if len(bad):
         row = int(np.searchsorted(A.indptr, bad[0], side="right") - 1)
         raise NonFiniteError(f"{name} has a non-finite entry in row {row}", vertex=row)
     return A

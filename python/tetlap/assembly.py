@@ -131,7 +131,7 @@ def operators(V, T=None, laplacian="primal", mass="barycentric", *, boundary="ci
     >>> import tetlap
     >>> V, T = tetlap.meshes.cube(2)
     >>> L, M = tetlap.operators(V, T, laplacian="dual", mass="circumcentric")
-    >>> round(M.sum(), 12)
+    >>> round(float(M.sum()), 12)
     1.0
     """
     V, T, w = _inputs(V, T, weights)
@@ -245,7 +245,7 @@ def tet_contributions(V, T=None, kind="primal", *, boundary="circumcentric", wei
     --------
     >>> import tetlap
     >>> V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
-    >>> (tetlap.tet_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12)
+    >>> (tetlap.tet_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12) + 0.0  # no -0.
     array([[1., 1., 1., 0., 0., 0.]])
     """
     V, T, w = _inputs(V, T, weights)

@@ -36,12 +36,13 @@ def compact(V, T, *per_vertex):
 
 
 def single_tet(kind: str = "corner"):
-    """One tet: ``"corner"`` (0,0,0),(1,0,0),(0,1,0),(0,0,1) or ``"regular"`` (edge 1)."""
+    """One positively oriented tet: ``"corner"`` (0,0,0),(1,0,0),(0,1,0),(0,0,1) or
+    ``"regular"`` (edge 1, centred at the origin)."""
     if kind == "corner":
         V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
     elif kind == "regular":
         s = 1 / np.sqrt(8)
-        V = s * np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=np.float64)
+        V = s * np.array([[1, 1, 1], [-1, 1, -1], [1, -1, -1], [-1, -1, 1]], dtype=np.float64)
     else:
         raise ValueError(f'kind must be "corner" or "regular", got {kind!r}')
     return V, np.array([[0, 1, 2, 3]], dtype=np.int64)
@@ -203,6 +204,7 @@ def weighted_ball(n: int = 2000, weight_scale: float = 0.0, *, seed: int = 0):
 
     Example
     -------
+    >>> import tetlap
     >>> V, T = weighted_ball(500, 1.0, seed=0)
     >>> bool(tetlap.diagnostics.non_delaunay_tets(V, T).mean() > 0.05)
     True

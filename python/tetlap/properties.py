@@ -50,10 +50,10 @@ class Report:
     n_vertices: int
     n_tets: int
     finite: bool
-    symmetric: bool
+    symmetric: bool | None
     symmetry_error: float
     max_row_sum: float
-    row_sums_ok: bool
+    row_sums_ok: bool | None
     local: bool
     linear_precision_residual: float | None
     linear_precision_ok: bool | None
@@ -79,7 +79,9 @@ class Report:
         return dataclasses.asdict(self)
 
     def rows(self) -> list[tuple[str, bool | None, str]]:
-        """The table's rows: ``(property, passed, numbers)``."""
+        """The table's rows: ``(property, passed, numbers)``; with a NaN or Inf in ``L``
+        only finiteness and locality are decided (the other rows are ``None``)."""
+        numeric = (lambda ok: ok) if self.finite else (lambda ok: None)
         rows = [
             ("finite (no NaN/Inf)", self.finite, ""),
             ("symmetric", self.symmetric, f"max |L - L^T| = {self.symmetry_error:.2e}"),
@@ -89,10 +91,10 @@ class Report:
              _fmt(self.linear_precision_residual, "relative residual {:.2e}")),
             ("negative semidefinite", self.nsd,
              _fmt(self.nsd_min_eigenvalue, "min eig(-L) {:.3e} ") + f"[{self.nsd_method}]"),
-            ("non-negative weights", self.n_negative == 0,
+            ("non-negative weights", numeric(self.n_negative == 0),
              f"{self.n_negative}/{self.n_edges} negative ({100 * self.negative_fraction:.2f}%), "
              f"min w = {self.min_weight:.3e}"),
-            ("  ... edges not both on the boundary", self.n_negative_interior == 0,
+            ("  ... edges not both on the boundary", numeric(self.n_negative_interior == 0),
              f"{self.n_negative_interior}/{self.n_edges_interior} negative "
              f"({100 * self.negative_fraction_interior:.2f}%)"),
         ]
@@ -147,7 +149,9 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     Returns
     -------
     Report
-        A dataclass (``to_dict()``; ``str()`` is a table).
+        A dataclass (``to_dict()``; ``str()`` is a table). An ``L`` with NaN or Inf
+        entries is reported (``finite=False``), not refused; its other checks are then
+        ``None``.
 
     Notes
     -----
@@ -171,7 +175,7 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     Examples
     --------
     >>> import tetlap
-    >>> V, T = tetlap.meshes.weighted_ball(600, 1.0, seed=1)
+    >>> V, T = tetlap.meshes.weighted_ball(600, 0.5, seed=1)
     >>> r = tetlap.check(tetlap.laplacian(V, T, "dual"), V, T)
     >>> r.nsd, r.n_negative_interior > 0
     (False, True)
@@ -183,7 +187,7 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     if kind is not None and not (kind in ("primal", "dual") or (
             isinstance(kind, numbers.Real) and not isinstance(kind, bool) and 0 <= kind <= 1)):
         raise OptionError(f'kind must be None, "primal", "dual" or a float t in [0, 1], got {kind!r}')
-    L = _arrays.matrix(L, n)
+    L = _arrays.matrix(L, n, finite=False)  # a NaN or Inf is reported, not refused
     boundary = diagnostics.boundary_vertices(T, n)
     c = _core.check_operator(V, T, *_csr_args(L), boundary, float(negative_tol))
     notes: list[str] = []
@@ -193,6 +197,11 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
         notes.append("linear precision: not applicable to an immersed (d > 3) mesh")
     elif lp is None:
         notes.append("linear precision: the mesh has no interior vertices")
+
+    finite = c["finite"]
+    if not finite:
+        notes.append("L has NaN or Inf entries: only finiteness and locality are decided")
+    decided = (lambda ok: ok) if finite else (lambda ok: None)
 
     nsd_ok, min_eig, method = None, None, "skipped (nsd=False)"
     if nsd and not c["finite"]:
@@ -204,14 +213,14 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     report = Report(
         n_vertices=n,
         n_tets=int(T.shape[0]),
-        finite=c["finite"],
-        symmetric=c["symmetry_error"] <= TOL * scale,
+        finite=finite,
+        symmetric=decided(c["symmetry_error"] <= TOL * scale),
         symmetry_error=c["symmetry_error"],
         max_row_sum=c["max_row_sum"],
-        row_sums_ok=c["max_row_sum"] <= TOL * scale,
+        row_sums_ok=decided(c["max_row_sum"] <= TOL * scale),
         local=c["local"],
         linear_precision_residual=lp,
-        linear_precision_ok=None if lp is None else lp < TOL,
+        linear_precision_ok=None if lp is None else decided(lp < TOL),
         nsd=nsd_ok,
         nsd_min_eigenvalue=min_eig,
         nsd_method=method,

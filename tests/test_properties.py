@@ -1,4 +1,4 @@
-"""tetlap.check: every line of the report can fail, and says why."""
+"""tetlap.properties (tetlap.check): every line of the report can fail, and says why."""
 
 from __future__ import annotations
 
@@ -38,8 +38,18 @@ def test_kuhn_grid_zero_weights_are_not_negative():
     assert (w == 0).sum() + (np.abs(w) < 1e-15).sum() > 0  # right dihedral angles
     r = tetlap.check(L, V, T)
     assert r.n_negative == 0 and r.min_weight > -1e-12 * np.abs(w).max()
-    strict = tetlap.check(L, V, T, negative_tol=-1.0)  # every w < 0 counts, even -1e-17
-    assert strict.n_negative >= r.n_negative
+    # a zero weight that rounding made -1e-17: below the tolerance, it does not count;
+    # with negative_tol=0 every w < 0 counts
+    i, j = edges[np.flatnonzero(w == 0)[0]]
+    noisy = L.tolil()
+    noisy[i, j] = noisy[j, i] = -1e-17
+    noisy[i, i] += 1e-17
+    noisy[j, j] += 1e-17
+    noisy = noisy.tocsr()
+    assert tetlap.check(noisy, V, T).n_negative == 0
+    strict = tetlap.check(noisy, V, T, negative_tol=0.0)
+    assert strict.n_negative == 1 and strict.min_weight == -1e-17
+    assert tetlap.check(L, V, T, negative_tol=0.0).n_negative == (w < 0).sum() == 0
 
 
 def test_each_failure_is_detected(cube):
@@ -67,6 +77,8 @@ def test_each_failure_is_detected(cube):
     nan.data[3] = np.nan
     r = tetlap.check(nan, V, T)
     assert not r.finite and r.nsd is None
+    assert r.symmetric is None and r.row_sums_ok is None and r.linear_precision_ok is None
+    assert "NO" in str(r) and "NaN or Inf" in str(r)
 
 
 def test_non_delaunay_dual_is_reported_indefinite_with_negative_weights():

@@ -1,9 +1,10 @@
-"""tetlap.Mesh: cached topology, updates equal to fresh assembly to the last bit."""
+"""tetlap.mesh (tetlap.Mesh): cached topology, updates equal to fresh assembly to the last bit."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 import tetlap
 
@@ -103,3 +104,38 @@ def test_immersed_mesh_updates(rng):
     V4[:, 3] = 0.1 * V4[:, 0] ** 2
     mesh.update(V4)
     assert (mesh.laplacian("dual") != tetlap.laplacian(V4, T, "dual")).nnz == 0
+
+
+def test_properties_copies_and_shared_read_only_pattern():
+    V, T = tetlap.meshes.cube(3, jitter=0.1, seed=2)
+    mesh = tetlap.Mesh(V, T)
+    assert mesh.n_vertices == len(V)
+    V_copy = mesh.V
+    V_copy[:] = 0  # a copy: the mesh keeps its coordinates
+    np.testing.assert_array_equal(mesh.V, V)
+    assert mesh.T.dtype == np.int64
+    np.testing.assert_array_equal(mesh.T, T)
+    L, M = mesh.operators("dual", "circumcentric")
+    assert (L != mesh.laplacian("dual")).nnz == 0 and (M != mesh.mass("circumcentric")).nnz == 0
+    F = mesh.mass("fem")
+    assert np.shares_memory(L.indices, F.indices) and np.shares_memory(L.indptr, F.indptr)
+    assert not F.indices.flags.writeable and not F.indptr.flags.writeable
+    assert (M != tetlap.mass(V, T, "circumcentric")).nnz == 0
+    assert (M != sp.diags_array(M.diagonal())).nnz == 0  # lumped: diagonal
+    L.data[:] = 0  # the values are the caller's own
+    assert mesh.laplacian("dual").nnz and abs(mesh.laplacian("dual")).max() > 0
+
+
+def test_mesh_of_a_mesh_object_and_options_apply_to_every_operator():
+    meshio = pytest.importorskip("meshio")
+    V, T = tetlap.meshes.ball(300, seed=4)
+    mesh = tetlap.Mesh(meshio.Mesh(V, [("tetra", T)]), boundary="barycentric", threads=2)
+    for kind in KINDS:
+        expected = tetlap.laplacian(V, T, kind, boundary="barycentric")
+        assert_bitwise(([mesh.laplacian(kind)], []), ([expected], []))
+    assert (mesh.mass("circumcentric") != tetlap.mass(V, T, "circumcentric",
+                                                      boundary="barycentric")).nnz == 0
+    with pytest.raises(tetlap.OptionError):
+        mesh.laplacian("cotan")
+    with pytest.raises(tetlap.OptionError):
+        tetlap.Mesh(V, T, threads=0)

@@ -1,0 +1,252 @@
+"""tetlap.assembly: the one-shot functions (laplacian, mass, operators, triplets,
+edge_weights, tet_contributions): every route gives the same operator, the output layout
+is the documented one, the result does not depend on the thread count, and the options
+do what they say. (The paper's properties of the operators: test_invariants.py; inputs
+and their errors: test_inputs.py.)"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import tetlap
+from tetlap.benchmark import shuffled
+
+KINDS = ["primal", "dual", 0.3]
+MASSES = ["barycentric", "circumcentric", "fem"]
+LOCAL_EDGES = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+CORNER_V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+
+
+def jittered_cube():
+    return tetlap.meshes.cube(4, jitter=0.2, seed=3)
+
+
+def random_ball():
+    return tetlap.meshes.ball(600, seed=7)
+
+
+def non_delaunay():
+    """A jittered cube with some interior vertices pushed hard: many non-Delaunay tets."""
+    V, T = tetlap.meshes.cube(4, jitter=0.24, seed=11)
+    return V, T
+
+
+def shuffled_ball():
+    """The ball with its vertices and tets in random order (no memory locality)."""
+    return shuffled(*random_ball(), seed=5)
+
+
+MESHES = {"cube": jittered_cube, "ball": random_ball, "non_delaunay": non_delaunay,
+          "shuffled_ball": shuffled_ball}
+
+
+@pytest.fixture(params=list(MESHES))
+def mesh(request):
+    return MESHES[request.param]()
+
+
+def scale_of(L):
+    return float(abs(L).max())
+
+
+def same_csr(A, B):
+    """Bitwise equal CSR arrays: shape, pattern and values."""
+    return (A.shape == B.shape and np.array_equal(A.indptr, B.indptr)
+            and np.array_equal(A.indices, B.indices) and A.data.tobytes() == B.data.tobytes())
+
+
+# ---- routes ---------------------------------------------------------------------------
+
+
+def test_all_routes_agree(mesh):
+    V, T = mesh
+    L = tetlap.laplacian(V, T, "dual")
+    L2, M2 = tetlap.operators(V, T, laplacian="dual", mass="circumcentric")
+    assert (L != L2).nnz == 0
+    assert (M2 != tetlap.mass(V, T, "circumcentric")).nnz == 0
+    r, c, v, shape = tetlap.triplets(V, T, "dual")
+    assert len(v) == 16 * len(T)
+    assert abs(sp.coo_array((v, (r, c)), shape=shape).tocsr() - L).max() <= 1e-14 * scale_of(L)
+    edges, w = tetlap.edge_weights(V, T, "dual")
+    np.testing.assert_array_equal(w, L[edges[:, 0], edges[:, 1]])
+    W = tetlap.tet_contributions(V, T, "dual")
+    local = LOCAL_EDGES
+    rows = np.concatenate([T[:, a] for a, b in local])
+    cols = np.concatenate([T[:, b] for a, b in local])
+    summed = sp.coo_array((W.T.ravel(), (rows, cols)), shape=L.shape).tocsr()
+    summed = summed + summed.T
+    assert abs(summed - (L - sp.diags_array(L.diagonal()))).max() <= 1e-14 * scale_of(L)
+
+
+@pytest.mark.parametrize("lap", KINDS)
+@pytest.mark.parametrize("mass", MASSES)
+def test_operators_is_laplacian_and_mass_bitwise(lap, mass):
+    V, T = jittered_cube()
+    L, M = tetlap.operators(V, T, lap, mass)
+    assert same_csr(L, tetlap.laplacian(V, T, lap))
+    assert same_csr(M, tetlap.mass(V, T, mass))
+
+
+def test_affine_endpoints_are_the_primal_and_the_dual():
+    V, T = non_delaunay()
+    for t, kind in ((0.0, "primal"), (1.0, "dual")):
+        A, B = tetlap.laplacian(V, T, t), tetlap.laplacian(V, T, kind)
+        assert abs(A - B).max() <= 1e-15 * scale_of(B), kind
+
+
+def test_triplets_are_each_tets_local_laplacian_in_the_documented_order():
+    V, T = non_delaunay()
+    trip = tetlap.triplets(V, T, "dual")
+    assert isinstance(trip, tetlap.Triplets)
+    assert trip.rows.dtype == trip.cols.dtype == np.int64 and trip.vals.dtype == np.float64
+    assert trip.shape == (len(V), len(V))
+    # entry 16 t + 4 a + b is corners (a, b) of tet t
+    rows, cols, vals = (x.reshape(len(T), 4, 4) for x in trip[:3])
+    np.testing.assert_array_equal(rows, np.repeat(T[:, :, None], 4, axis=2))
+    np.testing.assert_array_equal(cols, np.repeat(T[:, None, :], 4, axis=1))
+    W = tetlap.tet_contributions(V, T, "dual")
+    for e, (a, b) in enumerate(LOCAL_EDGES):
+        np.testing.assert_array_equal(vals[:, a, b], W[:, e])
+        np.testing.assert_array_equal(vals[:, b, a], W[:, e])
+    np.testing.assert_allclose(vals.sum(axis=2), 0, atol=1e-14 * np.abs(vals).max())
+
+
+def test_edge_weights_are_the_unique_sorted_edges():
+    V, T = random_ball()
+    edges, w = tetlap.edge_weights(V, T, "primal")
+    assert edges.dtype == np.int64 and w.dtype == np.float64 and edges.shape == (len(w), 2)
+    assert (edges[:, 0] < edges[:, 1]).all()
+    keys = edges[:, 0] * len(V) + edges[:, 1]
+    assert (np.diff(keys) > 0).all()  # sorted lexicographically, each once
+    # the edges of the tets, computed here from T
+    pairs = np.sort(np.concatenate([T[:, [a, b]] for a, b in LOCAL_EDGES]), axis=1)
+    np.testing.assert_array_equal(edges, np.unique(pairs, axis=0))
+
+
+def test_tet_contributions_of_the_corner_tet():
+    """By hand: the primal weight of edge ij is |e_kl| cot(theta_kl) / 6 for the opposite
+    edge kl and its dihedral angle: 1/6 on the three edges at the right-angled corner
+    (|e_kl| = sqrt 2, cot theta_kl = 1 / sqrt 2), 0 on the others (theta_kl = 90 deg)."""
+    W = tetlap.tet_contributions(CORNER_V, [[0, 1, 2, 3]], "primal")
+    assert W.shape == (1, 6)
+    np.testing.assert_allclose(W[0], [1 / 6] * 3 + [0] * 3, atol=1e-16)
+    # the corners in another order: the weights follow their edges
+    W2 = tetlap.tet_contributions(CORNER_V, [[1, 2, 3, 0]], "primal")
+    np.testing.assert_allclose(W2[0], [0, 0, 1 / 6, 0, 1 / 6, 1 / 6], atol=1e-16)
+
+
+# ---- output layout --------------------------------------------------------------------
+
+
+def test_csr_layout_is_canonical(mesh):
+    V, T = mesh
+    L = tetlap.laplacian(V, T, "dual")
+    assert L.format == "csr" and L.dtype == np.float64
+    assert L.has_sorted_indices
+    copy = L.copy()
+    copy.sum_duplicates()
+    copy.sort_indices()
+    np.testing.assert_array_equal(copy.indices, L.indices)
+    np.testing.assert_array_equal(copy.indptr, L.indptr)
+    edges = tetlap.diagnostics.mesh_edges(T)
+    assert L.nnz == len(V) + 2 * len(edges)
+
+
+def test_sparse_arrays_and_mass_layouts():
+    V = np.array(CORNER_V + [[7, 7, 7]], dtype=float)  # vertex 4 is unreferenced
+    V2, T = jittered_cube()
+    for f in (lambda: tetlap.laplacian(V2, T), lambda: tetlap.mass(V2, T),
+              lambda: tetlap.mass(V2, T, "fem"), lambda: tetlap.operators(V2, T)[1]):
+        A = f()
+        assert isinstance(A, sp.csr_array) and A.dtype == np.float64
+    for kind in ("barycentric", "circumcentric"):  # lumped: diagonal
+        M = tetlap.mass(V2, T, kind)
+        assert (M != sp.diags_array(M.diagonal())).nnz == 0
+        assert tetlap.mass(V, [[0, 1, 2, 3]], kind).diagonal()[4] == 0
+    L, F = tetlap.laplacian(V2, T), tetlap.mass(V2, T, "fem")
+    np.testing.assert_array_equal(F.indptr, L.indptr)  # fem: the pattern of L
+    np.testing.assert_array_equal(F.indices, L.indices)
+
+
+def test_unreferenced_vertices_get_empty_rows_and_zero_mass():
+    V = np.array(CORNER_V + [[7, 7, 7]], dtype=float)
+    L = tetlap.laplacian(V, [[0, 1, 2, 3]], "dual")
+    assert L.shape == (5, 5) and L[[4], :].nnz == 1 and L[4, 4] == 0
+    assert tetlap.mass(V, [[0, 1, 2, 3]], "circumcentric").diagonal()[4] == 0
+
+
+def test_a_mesh_object_stands_for_v_and_t():
+    meshio = pytest.importorskip("meshio")
+    V, T = jittered_cube()
+    obj = meshio.Mesh(V, [("tetra", T)])
+    assert same_csr(tetlap.laplacian(obj, kind="dual"), tetlap.laplacian(V, T, "dual"))
+    assert same_csr(tetlap.mass(obj, kind="fem"), tetlap.mass(V, T, "fem"))
+    np.testing.assert_array_equal(tetlap.tet_contributions(obj), tetlap.tet_contributions(V, T))
+    np.testing.assert_array_equal(tetlap.edge_weights(obj)[1], tetlap.edge_weights(V, T)[1])
+    np.testing.assert_array_equal(tetlap.triplets(obj).vals, tetlap.triplets(V, T).vals)
+
+
+# ---- threads --------------------------------------------------------------------------
+
+
+def test_bitwise_identical_for_any_thread_count(mesh):
+    V, T = mesh
+
+    def arrays(threads):
+        L, M = tetlap.operators(V, T, "dual", "circumcentric", threads=threads)
+        F = tetlap.mass(V, T, "fem", threads=threads)
+        P = tetlap.laplacian(V, T, "primal", threads=threads)
+        e, w = tetlap.edge_weights(V, T, "dual", threads=threads)
+        return [L.data, L.indices, L.indptr, M.data, F.data, P.data, w,
+                tetlap.triplets(V, T, threads=threads).vals]
+
+    reference = arrays(1)
+    for threads in (2, 4, None):
+        for a, b in zip(reference, arrays(threads)):
+            assert a.tobytes() == b.tobytes()
+
+
+def test_thread_counts_up_to_max_threads_are_accepted():
+    V, T = jittered_cube()
+    reference = tetlap.laplacian(V, T, "dual", threads=1)
+    assert same_csr(tetlap.laplacian(V, T, "dual", threads=tetlap.MAX_THREADS), reference)
+    with pytest.raises(tetlap.OptionError, match="threads"):
+        tetlap.laplacian(V, T, "dual", threads=tetlap.MAX_THREADS + 1)
+
+
+# ---- options --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"kind": "cotan"}, "kind"),
+    ({"kind": 1.5}, r"\[0, 1\]"),
+    ({"kind": -0.1}, r"\[0, 1\]"),
+    ({"kind": True}, "kind"),
+    ({"threads": 0}, "threads"),
+    ({"threads": -2}, "threads"),
+    ({"threads": 1.5}, "threads"),
+    ({"degenerate": "ignore"}, "degenerate"),
+])
+def test_bad_options_raise_option_error(kwargs, match):
+    with pytest.raises(tetlap.OptionError, match=match):
+        tetlap.laplacian(CORNER_V, [[0, 1, 2, 3]], **kwargs)
+
+
+def test_bad_mass_kind():
+    with pytest.raises(tetlap.OptionError, match="mass kind"):
+        tetlap.mass(CORNER_V, [[0, 1, 2, 3]], kind="voronoi")
+
+
+def test_degenerate_skip_drops_only_the_flat_tet():
+    V = np.array(CORNER_V + [[0.5, 0.5, 0], [0.2, 0.2, -1]], dtype=float)
+    T = [[0, 1, 2, 3], [0, 1, 2, 4], [0, 1, 2, 5]]
+    for kind in ("primal", "dual"):
+        L = tetlap.laplacian(V, T, kind, degenerate="skip")
+        expected = tetlap.laplacian(V, [T[0], T[2]], kind).toarray()
+        np.testing.assert_array_equal(L.toarray(), expected)
+        assert np.isfinite(L.data).all()
+        assert L[0, 4] == 0 and L.nnz > expected.astype(bool).sum()  # explicit zeros kept
+    m = tetlap.mass(V, T, "circumcentric", degenerate="skip").diagonal()
+    assert m[4] == 0 and m.sum() == pytest.approx(1 / 6 + 1 / 6 * 1)

@@ -1,0 +1,314 @@
+"""tetlap.info.report, the numbers behind ``tetlap info``, against independent routes.
+
+Every number of the report is recomputed here another way: the mesh counts, volumes,
+dihedral angles, Delaunay and well-centredness tests with NumPy from (V, T); the weights
+from :func:`tetlap.edge_weights`; row sums, linear precision and the masses with NumPy
+from the assembled matrices (the circumcentric mass by the pyramid identity); the
+semidefiniteness from dense eigenvalues where the report used them. Rounding-sensitive
+decisions (a point on a circumsphere, a right angle) are allowed either way inside a
+tolerance band.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+
+import numpy as np
+import pytest
+
+import tetlap
+from tetlap import info
+from tetlap.meshes import orient
+
+from conftest import read_mesh, real_mesh_paths
+
+PAIRS = {"primal": "barycentric", "dual": "circumcentric"}
+FACES = [list(f) for f in itertools.combinations(range(4), 3)]
+EDGES = list(itertools.combinations(range(4), 2))
+NEGATIVE_TOL = 1e-12
+
+
+# ---- independent computations ---------------------------------------------------------
+
+
+def volumes(V, T):
+    X = V[T]
+    return np.linalg.det(X[:, 1:] - X[:, :1]) / 6
+
+
+def dihedral_angles(V, T):
+    """(m, 6) degrees at the local edges (0,1), (0,2), ... from the normals of the two
+    faces at each edge (both taken with the edge's direction)."""
+    X = V[T]
+    out = np.empty((len(T), 6))
+    for k, (a, b) in enumerate(EDGES):
+        c, d = [i for i in range(4) if i not in (a, b)]
+        e = X[:, b] - X[:, a]
+        n1, n2 = np.cross(e, X[:, c] - X[:, a]), np.cross(e, X[:, d] - X[:, a])
+        out[:, k] = np.degrees(np.arctan2(np.linalg.norm(np.cross(n1, n2), axis=1),
+                                          np.einsum("ij,ij->i", n1, n2)))
+    return out
+
+
+def circumspheres(X):
+    """Circumcenters (m, 3) and squared radii (m,) of tets X (m, 4, 3); NaN when flat."""
+    A = 2 * (X[:, 1:] - X[:, :1])
+    b = (X[:, 1:] ** 2).sum(axis=2) - (X[:, :1] ** 2).sum(axis=2)
+    ok = np.abs(np.linalg.det(A)) > 1e-300
+    c = np.full((len(X), 3), np.nan)
+    c[ok] = np.linalg.solve(A[ok], b[ok][..., None])[..., 0]
+    return c, ((c - X[:, 0]) ** 2).sum(axis=1)
+
+
+def face_table(T):
+    """Sorted faces, their counts, and for each face occurrence: (tet, opposite corner)."""
+    F = np.sort(np.concatenate([T[:, f] for f in FACES]), axis=1)
+    tet = np.tile(np.arange(len(T)), 4)
+    corner = np.repeat([3, 2, 1, 0], len(T))  # FACES[k] leaves out corner 3 - k
+    keys, inverse, counts = np.unique(F, axis=0, return_inverse=True, return_counts=True)
+    return keys, inverse.ravel(), counts, tet, corner
+
+
+def delaunay_bounds(V, T, keys, inverse, counts, tet, corner):
+    """(definitely non-Delaunay interior faces, undecidable ones) of a manifold mesh: the
+    second tet's opposite vertex inside / within 1e-8 of the first tet's circumsphere."""
+    order = np.argsort(inverse, kind="stable")
+    starts = np.concatenate([[0], np.cumsum(counts)])[:-1]
+    pairs = counts == 2
+    first, second = order[starts[pairs]], order[starts[pairs] + 1]
+    # the tet with the lower index is "the first" (as in tetlap.diagnostics.interior_faces)
+    swap = tet[first] > tet[second]
+    first, second = np.where(swap, second, first), np.where(swap, first, second)
+    t1, t2, o2 = tet[first], tet[second], corner[second]
+    c, r2 = circumspheres(V[T[t1]])
+    d2 = ((V[T[t2, o2]] - c) ** 2).sum(axis=1)
+    margin = (r2 - d2) / r2
+    unsure = ~np.isfinite(margin) | (np.abs(margin) <= 1e-8)
+    return int((margin > 1e-8).sum()), int(unsure.sum())
+
+
+def well_centered_bounds(V, T):
+    """(definitely well-centred tets, undecidable ones): circumcenter strictly inside the
+    tet and every face angle acute, with a band of 1e-9 for rounding."""
+    X = V[T]
+    c, _ = circumspheres(X)
+    M = np.concatenate([np.transpose(X, (0, 2, 1)), np.ones((len(X), 1, 4))], axis=1)
+    ok = np.isfinite(c).all(axis=1)
+    bary = np.full((len(X), 4), np.nan)
+    bary[ok] = np.linalg.solve(M[ok], np.concatenate([c[ok], np.ones((ok.sum(), 1))], axis=1)[..., None])[..., 0]
+    cosines = []
+    for f in FACES:
+        P = X[:, f]
+        for i in range(3):
+            u, v = P[:, (i + 1) % 3] - P[:, i], P[:, (i + 2) % 3] - P[:, i]
+            cosines.append(np.einsum("ij,ij->i", u, v)
+                           / (np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1)))
+    cosines = np.column_stack(cosines)
+    sure = ok & (bary.min(axis=1) > 1e-9) & (cosines.min(axis=1) > 1e-9)
+    maybe = ~ok | (np.abs(bary).min(axis=1) <= 1e-9) | (np.abs(cosines).min(axis=1) <= 1e-9)
+    return int(sure.sum()), int((maybe & ~sure).sum())
+
+
+def assert_mesh_summary(V, T, m):
+    n = len(V)
+    vol = volumes(V, T)
+    mean = np.abs(vol).mean()
+    assert (m["n_vertices"], m["n_tets"]) == (n, len(T))
+    near_zero = (np.abs(vol) <= 1e-10 * mean).sum()
+    assert abs(m["n_positive_tets"] - (vol > 0).sum()) <= near_zero
+    assert abs(m["n_negative_tets"] - (vol < 0).sum()) <= near_zero
+    assert m["n_positive_tets"] + m["n_negative_tets"] == len(T) - (vol == 0).sum()
+    assert (np.abs(vol) <= 1e-13 * mean).sum() <= m["n_degenerate_tets"] <= near_zero
+    assert m["mesh_volume"] == pytest.approx(np.abs(vol).sum(), rel=1e-9)
+    used = np.unique(T)
+    assert m["n_unreferenced_vertices"] == n - len(used)
+    assert m["n_duplicate_tets"] == len(T) - len(np.unique(np.sort(T, axis=1), axis=0))
+    keys, inverse, counts, tet, corner = face_table(T)
+    assert m["n_boundary_faces"] == (counts == 1).sum()
+    assert m["n_interior_faces"] == (counts[counts >= 2] - 1).sum()
+    assert m["n_nonmanifold_faces"] == (counts > 2).sum()
+    assert m["n_boundary_vertices"] == len(np.unique(keys[counts == 1]))
+    fine = np.abs(vol) > 1e-10 * mean
+    if fine.all():  # (flat tets: NaN in the core, 0 or 180 here)
+        angles = dihedral_angles(V, T)
+        assert m["min_dihedral_deg"] == pytest.approx(angles.min(), abs=1e-6)
+        assert m["max_dihedral_deg"] == pytest.approx(angles.max(), abs=1e-6)
+        sure, unsure = well_centered_bounds(V, T)
+        assert sure <= m["well_centered_tet_fraction"] * len(T) + 1e-9 <= sure + unsure + 1e-6
+        if (counts <= 2).all():
+            bad, unsure = delaunay_bounds(V, T, keys, inverse, counts, tet, corner)
+            assert bad <= m["n_non_delaunay_faces"] <= bad + unsure
+            assert m["non_delaunay_face_fraction"] == pytest.approx(
+                m["n_non_delaunay_faces"] / max(m["n_interior_faces"], 1))
+
+
+def assert_operator_report(V, T, kind, r, boundary):
+    """The Report dict of ``kind`` with the mass of PAIRS[kind] against NumPy."""
+    n = len(V)
+    L = tetlap.laplacian(V, T, kind, degenerate="skip")
+    scale = abs(L).max()
+    assert r["n_vertices"] == n and r["n_tets"] == len(T)
+    assert r["finite"] == bool(np.isfinite(L.data).all())
+    assert r["symmetry_error"] == abs(L - L.T).max()
+    assert r["max_row_sum"] == pytest.approx(np.abs(L.sum(axis=1)).max(), abs=1e-14 * scale)
+    assert r["local"] is True
+    edges, w = tetlap.edge_weights(V, T, kind, degenerate="skip")
+    inner = ~(boundary[edges[:, 0]] & boundary[edges[:, 1]])
+    negative = w < -NEGATIVE_TOL * np.abs(w).max()
+    assert r["n_edges"] == len(edges) and r["n_edges_interior"] == inner.sum()
+    assert r["min_weight"] == w.min()
+    assert r["n_negative"] == negative.sum() and r["n_negative_interior"] == (negative & inner).sum()
+    assert r["negative_fraction"] == pytest.approx(negative.mean())
+    # linear precision: max |(L V)_i| at interior vertices / (max|L| * bbox diagonal)
+    interior = ~boundary & np.isin(np.arange(n), T)
+    if interior.any():
+        diagonal = np.linalg.norm(V.max(axis=0) - V.min(axis=0))
+        residual = np.abs((L @ V)[interior]).max() / (scale * diagonal)
+        assert r["linear_precision_residual"] == pytest.approx(residual, rel=1e-6, abs=1e-13)
+    else:
+        assert r["linear_precision_residual"] is None
+    if kind == "primal" and r["nsd"] is not None:
+        assert r["nsd"], "the primal is always negative semidefinite"
+    if r["nsd_method"] == "dense eigenvalues":
+        lam = np.linalg.eigvalsh(-(L + L.T).toarray() / 2)[0]
+        assert r["nsd_min_eigenvalue"] == pytest.approx(lam, abs=1e-10 * scale)
+        if abs(lam) > 1e-8 * scale:
+            assert r["nsd"] == (lam > 0 or lam >= -1e-9 * scale)
+    # the mass: barycentric = |Vol| / 4 per corner; circumcentric by the pyramid identity
+    vol = np.abs(volumes(V, T))
+    if PAIRS[kind] == "barycentric":
+        m = np.bincount(T.ravel(), weights=np.repeat(vol / 4, 4), minlength=n)
+    else:
+        coo = L.tocoo()
+        off = coo.row != coo.col
+        sq = ((V[coo.row[off]] - V[coo.col[off]]) ** 2).sum(axis=1)
+        m = np.bincount(coo.row[off], weights=sq * coo.data[off], minlength=n) / 6
+    big = np.abs(m).max()
+    assert r["mass_total"] == pytest.approx(vol.sum(), rel=1e-9)
+    assert r["mesh_volume"] == pytest.approx(vol.sum(), rel=1e-9)
+    assert r["mass_min"] == pytest.approx(m.min(), rel=1e-6, abs=1e-9 * big)
+    used = np.isin(np.arange(n), T)
+    eps = 1e-9 * big
+    assert (m[used] < -eps).sum() <= r["mass_nonpositive"] <= (m[used] <= eps).sum()
+
+
+def assert_report(V, T, result):
+    assert set(result) == {"mesh", "primal", "dual"}
+    json.dumps(result)  # JSON-ready
+    assert_mesh_summary(V, T, result["mesh"])
+    keys, _, counts, _, _ = face_table(T)
+    boundary = np.zeros(len(V), dtype=bool)
+    boundary[keys[counts == 1].ravel()] = True
+    for kind in PAIRS:
+        assert_operator_report(V, T, kind, result[kind], boundary)
+
+
+# ---- built-in meshes ------------------------------------------------------------------
+
+
+def mixed_cube():
+    V, T = tetlap.meshes.cube(3, jitter=0.2, seed=2)
+    T = T.copy()
+    T[::3, [0, 1]] = T[::3, [1, 0]]
+    return V, T
+
+
+def flawed_cube():
+    """Unused vertex, a duplicate tet, a flat tet on the bottom face."""
+    V, T = tetlap.meshes.cube(2, jitter=0.1, seed=1)
+    V = np.vstack([V, [[7.0, 7.0, 7.0]]])
+    return V, np.vstack([T, T[5:6, ::-1], [[0, 3, 9, 27]]])
+
+
+BUILT_IN = {
+    "Delaunay ball": lambda: tetlap.meshes.ball(800, seed=0),
+    "non-Delaunay ball": lambda: tetlap.meshes.weighted_ball(600, 0.5, seed=1),
+    "mixed orientation": mixed_cube,
+    "flaws": flawed_cube,
+}
+
+
+@pytest.mark.parametrize("name", list(BUILT_IN))
+def test_report_against_independent_routes(name):
+    V, T = BUILT_IN[name]()
+    assert_report(V, T, info.report(V, T, progress=False))
+
+
+def test_report_of_a_delaunay_ball():
+    """The facts of Table 1 on a Delaunay mesh, as the report states them."""
+    V, T = tetlap.meshes.ball(800, seed=0)
+    result = info.report(V, T, progress=False)
+    assert result["mesh"]["n_tets"] == len(T)
+    assert result["mesh"]["non_delaunay_face_fraction"] == 0.0  # a Delaunay mesh
+    assert result["primal"]["nsd"] is True
+    assert result["dual"]["negative_fraction_interior"] == 0.0
+    edges, w = tetlap.edge_weights(V, T, "primal")
+    assert result["primal"]["min_weight"] == pytest.approx(w.min(), rel=1e-12)
+    for kind in ("primal", "dual"):
+        assert result[kind]["mass_total"] == pytest.approx(result[kind]["mesh_volume"])
+
+
+def test_report_of_a_non_delaunay_ball_says_indefinite():
+    V, T = tetlap.meshes.weighted_ball(600, 0.5, seed=1)
+    result = info.report(V, T, progress=False)
+    assert result["mesh"]["non_delaunay_face_fraction"] > 0
+    assert result["dual"]["nsd"] is False and result["primal"]["nsd"] is True
+    assert result["dual"]["n_negative_interior"] > 0
+
+
+def test_nsd_false_skips_the_certificates_only():
+    V, T = tetlap.meshes.ball(300, seed=3)
+    a, b = info.report(V, T, progress=False), info.report(V, T, nsd=False, progress=False)
+    for kind in PAIRS:
+        assert b[kind]["nsd"] is None and "skipped" in b[kind]["nsd_method"]
+        for key in set(a[kind]) - {"nsd", "nsd_min_eigenvalue", "nsd_method"}:
+            assert a[kind][key] == b[kind][key], key
+    assert a["mesh"] == b["mesh"]
+
+
+def test_progress_goes_to_stderr_only(capsys):
+    V, T = tetlap.meshes.cube(2)
+    info.report(V, T, nsd=False, progress=True)
+    out, err = capsys.readouterr()
+    assert out == "" and "mesh diagnostics" in err
+
+
+def test_report_rejects_triangles():
+    with pytest.raises(tetlap.ShapeError):
+        info.report([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], progress=False)
+
+
+# ---- the corpus -----------------------------------------------------------------------
+
+
+def corpus(predicate=lambda path: True):
+    paths = [p for p in real_mesh_paths() if predicate(p)]
+    if not paths:
+        return [pytest.param(None, marks=pytest.mark.skip(
+            reason="real-mesh corpus not found (set TETLAP_MESHES)"))]
+    return [pytest.param(p, id=p.name) for p in paths]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("path", corpus())
+def test_report_agrees_with_independent_routes_on_every_real_mesh(path):
+    V, T = read_mesh(path)
+    assert_report(V, T, info.report(V, T, nsd=len(V) <= 3000, progress=False))
+
+
+@pytest.mark.parametrize("path", corpus(lambda p: "mixed_orient" in p.name or "sphshells" in p.name))
+def test_mixed_orientation_file_gives_the_numbers_of_a_reoriented_copy(path):
+    V, T = read_mesh(path)
+    a = info.report(V, T, nsd=False, progress=False)
+    b = info.report(V, orient(V, T), nsd=False, progress=False)
+    assert a["mesh"]["n_negative_tets"] > 0 and b["mesh"]["n_negative_tets"] == 0
+    for kind in ("primal", "dual"):
+        for key, value in a[kind].items():
+            if key in ("max_row_sum", "linear_precision_residual"):
+                continue  # rounding noise, checked relative to max|L| elsewhere
+            elif isinstance(value, float):
+                assert b[kind][key] == pytest.approx(value, rel=1e-9, abs=1e-15), key
+            else:
+                assert b[kind][key] == value, key
+    assert a["mesh"]["non_delaunay_face_fraction"] == b["mesh"]["non_delaunay_face_fraction"]
