@@ -91,3 +91,20 @@ def test_flip_energy_change_vanishes_for_cospherical_points_with_the_dual():
              for k in ("primal", "dual")}
         assert np.abs(D["dual"]).max() < 1e-12
         assert np.abs(D["primal"]).max() > 0.1
+
+
+@pytest.mark.slow
+def test_regular_weights(tmp_path):
+    folder = run("regular-weights", tmp_path, meshes=MESH_DIR)
+    table = rows(folder)
+    generated = [r for r in table if r.get("family") == "regular triangulation"]
+    assert generated and all(r["regular"] == "True" for r in generated)
+    assert all(int(r["negative_interior_weighted"]) == 0 for r in generated)
+    assert all(int(r["negative_interior_dual"]) > 0 for r in generated)  # not Delaunay
+
+
+@pytest.mark.slow
+def test_improve(tmp_path):
+    folder = run("improve", tmp_path, meshes=MESH_DIR)
+    shell = [r for r in rows(folder) if r["part"] == "shell"]
+    assert shell and all(int(r["negative_after"]) < int(r["negative_before"]) for r in shell)

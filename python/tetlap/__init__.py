@@ -35,6 +35,7 @@ from .errors import (
     TetlapError,
 )
 from .derivatives import VJP, dirichlet_energy, mass_energy, vjp
+from .regular import RegularWeights, regular_weights
 from .assembly import (
     Triplets,
     edge_weights,
@@ -59,6 +60,8 @@ __all__ = [
     "dirichlet_energy",
     "mass_energy",
     "VJP",
+    "regular_weights",
+    "RegularWeights",
     "Mesh",
     "UpdateInfo",
     "check",

@@ -12,6 +12,7 @@ paper's. Figures need matplotlib (``pip install 'tetlap[experiments]'``).
 ``sphere3``               normals and mean curvature on S^3 in R^4 (Fig. 13/14)
 ``flips``                 sign of the Dirichlet-energy change of 2-3 / 3-2 flips (Sec. 9)
 ``improve``               vertex moves that remove negative dual weights (tetlap.improve)
+``regular-weights``       weights that make a mesh regular; the Sec. 9 conjecture
 ========================  ==========================================================
 """
 
@@ -23,12 +24,13 @@ from ._output import Output
 
 __all__ = ["NAMES", "Output", "run"]
 
-NAMES = ("dirichlet-shell", "eigen-ball", "negative-weights", "sphere3", "flips", "improve")
+NAMES = ("dirichlet-shell", "eigen-ball", "negative-weights", "sphere3", "flips", "improve",
+         "regular-weights")
 
 
 def run(name: str, *, quick: bool = False, out=None, seed: int = 0, meshes=None) -> pathlib.Path:
     """Run experiment ``name``; return the folder with its CSV, PNG and summary."""
-    from . import eigen_ball, flips, improve, negative_weights, shell, sphere3
+    from . import eigen_ball, flips, improve, negative_weights, regular_weights, shell, sphere3
 
     runners = {
         "dirichlet-shell": shell.run,
@@ -37,11 +39,12 @@ def run(name: str, *, quick: bool = False, out=None, seed: int = 0, meshes=None)
         "sphere3": sphere3.run,
         "flips": flips.run,
         "improve": improve.run,
+        "regular-weights": regular_weights.run,
     }
     if name not in runners:
         raise ValueError(f"unknown experiment {name!r}; choose one of {', '.join(NAMES)}")
     output = Output(name, out, quick, seed)
-    if name in ("negative-weights", "improve"):
+    if name in ("negative-weights", "improve", "regular-weights"):
         runners[name](output, meshes=meshes)
     else:
         runners[name](output)
