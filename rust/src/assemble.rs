@@ -77,51 +77,50 @@ fn gather_rows<S: Simplex>(
     }
 }
 
-/// One-shot assembly without storing the slot map: every row is built from its elements
-/// and filled at once. Returns the column indices and, if asked, the Laplacian's values
-/// (from per-element weights) and the consistent mass's values (from per-element measures
-/// in slot 0 of `vol`).
+/// One-shot assembly: every row is built once, its values filled at once into its chunk's
+/// buffers, then moved to the user's order. Returns the row starts, the column indices
+/// and, if asked, the Laplacian's values (from per-element weights) and the consistent
+/// mass's values (from per-element measures in slot 0 of `vol`).
+#[allow(clippy::type_complexity)]
 fn assemble_rows<S: Simplex>(
     rows: &Rows<S>,
     vertex_of: &[u32],
     w: Option<&[S::EdgeValues]>,
     vol: Option<&[S::CornerValues]>,
     opts: &Options,
-) -> Result<(Vec<u32>, Option<Vec<f64>>, Option<Vec<f64>>)> {
-    let nnz = rows.nnz();
-    let mut indices = vec![0u32; nnz];
-    let mut lap = w.map(|_| vec![0.0; nnz]);
-    let mut fem = vol.map(|_| vec![0.0; nnz]);
-    fn optional<'a>(data: &'a mut Option<Vec<f64>>, indptr: &[usize], vertex_of: &[u32]) -> Vec<Option<&'a mut [f64]>> {
-        match data {
-            Some(d) => rows_in_internal_order(d, indptr, vertex_of).into_iter().map(Some).collect(),
-            None => vertex_of.iter().map(|_| None).collect(),
-        }
+) -> Result<(Vec<usize>, Vec<u32>, Option<Vec<f64>>, Option<Vec<f64>>)> {
+    #[derive(Default)]
+    struct Values {
+        cols: Vec<u32>,
+        lap: Vec<f64>,
+        fem: Vec<f64>,
     }
-    let lap_rows = optional(&mut lap, &rows.indptr, vertex_of);
-    let fem_rows = optional(&mut fem, &rows.indptr, vertex_of);
-    let mut items: Vec<_> = rows_in_internal_order(&mut indices, &rows.indptr, vertex_of)
-        .into_iter()
-        .zip(lap_rows)
-        .zip(fem_rows)
-        .collect();
+    /// `values` grown by one row of `len` zeros: the new row.
+    fn new_row(values: &mut Vec<f64>, len: usize) -> &mut [f64] {
+        let start = values.len();
+        values.resize(start + len, 0.0);
+        &mut values[start..]
+    }
     let off = S::FEM.0;
-    for_each_row(&mut items, opts, |v, ((cols, lap_row), fem_row)| {
+    let built = rows.build_all(opts, |v, row, out: &mut Values| {
         let items = rows.corners.of(v);
-        rows.build(v, |row| {
-            cols.copy_from_slice(row.cols);
-            let diag = row.diagonal as usize;
-            if let (Some(out), Some(w)) = (lap_row, w) {
-                fill_row::<S>(out, items, row.slots, diag, &|t, e| w[t].as_ref()[e], |s| -s);
-            }
-            if let (Some(out), Some(vol)) = (fem_row, vol) {
-                let d = fem_diagonal::<S>(items, vol);
-                fill_row::<S>(out, items, row.slots, diag, &|t, _| vol[t].as_ref()[0] / off, |_| d);
-            }
-        })
+        let diag = row.diagonal as usize;
+        out.cols.extend_from_slice(row.cols);
+        if let Some(w) = w {
+            let values = new_row(&mut out.lap, row.cols.len());
+            fill_row::<S>(values, items, row.slots, diag, &|t, e| w[t].as_ref()[e], |s| -s);
+        }
+        if let Some(vol) = vol {
+            let d = fem_diagonal::<S>(items, vol);
+            let values = new_row(&mut out.fem, row.cols.len());
+            fill_row::<S>(values, items, row.slots, diag, &|t, _| vol[t].as_ref()[0] / off, |_| d);
+        }
     })?;
-    drop(items);
-    Ok((indices, lap, fem))
+    opts.cancelled()?;
+    let indices = built.gather(vertex_of, |b| &b.cols);
+    let lap = w.map(|_| built.gather(vertex_of, |b| &b.lap));
+    let fem = vol.map(|_| built.gather(vertex_of, |b| &b.fem));
+    Ok((built.indptr, indices, lap, fem))
 }
 
 /// Sum over the elements around every internal vertex (ascending user index) of
@@ -151,10 +150,10 @@ pub(crate) fn assemble<S: Simplex>(
         let internal = gather_vertices::<S>(&rows.corners, |t, c| m[t].as_ref()[c]);
         Mass::Lumped(layout.to_user_vertices(&internal))
     });
-    let (indices, lap, fem) = assemble_rows(&rows, &layout.vertex_of, w, fem, opts)?;
+    let (indptr, indices, lap, fem) = assemble_rows(&rows, &layout.vertex_of, w, fem, opts)?;
     let n = layout.n_vertices();
-    let laplacian = lap.map(|data| Csr { n, indptr: rows.indptr.clone(), indices: indices.clone(), data });
-    let mass = lumped.or_else(|| fem.map(|data| Mass::Consistent(Csr { n, indptr: rows.indptr, indices, data })));
+    let laplacian = lap.map(|data| Csr { n, indptr: indptr.clone(), indices: indices.clone(), data });
+    let mass = lumped.or_else(|| fem.map(|data| Mass::Consistent(Csr { n, indptr, indices, data })));
     if let Some(l) = &laplacian {
         finite_rows(&l.indptr, &l.data)?;
     }
@@ -170,9 +169,12 @@ pub(crate) fn assemble<S: Simplex>(
 /// `indptr`) with a value that is not finite. Every element's own values are finite by
 /// then, so such a value can only be a sum that left the `f64` range.
 pub(crate) fn finite_rows(indptr: &[usize], data: &[f64]) -> Result<()> {
-    match data.par_iter().position_first(|x| !x.is_finite()) {
+    const CHUNK: usize = 1 << 14;
+    let bad = |x: &f64| !x.is_finite();
+    match data.par_chunks(CHUNK).position_first(|c| c.iter().any(bad)) {
         None => Ok(()),
-        Some(k) => {
+        Some(c) => {
+            let k = c * CHUNK + data[c * CHUNK..].iter().position(bad).expect("found in this chunk");
             let vertex = indptr.partition_point(|&p| p <= k) - 1;
             Err(crate::Error::SumOverflow { vertex })
         }

@@ -33,31 +33,50 @@ pub(crate) fn groups_mut<'a, T>(mut data: &'a mut [T], offsets: &[usize]) -> Vec
     groups
 }
 
+/// Records per work item of [`group_by`]'s first pass (and per poll of the cancel flag).
+const RECORD_CHUNK: usize = 1 << 16;
+
 /// The records `record(0..count)`, each `(group, value)` with `group < n`, grouped by
 /// group: returns the group offsets (length `n + 1`) and the values, in record order
-/// within each group (a stable counting sort).
+/// within each group (a stable counting sort). The result is unique, hence the same for
+/// any thread count.
 ///
-/// Parallel over ranges of groups: every worker scans all records and keeps those of its
-/// own range, so the result does not depend on the scheduling; the cancel flag is polled
-/// between passes.
+/// Two passes, `O(count + n)` work: chunks of records are evaluated once each, in
+/// parallel, into buckets by *range* of groups (one range per work item of the second
+/// pass); then every range counts its records, and scatters them into its own contiguous
+/// part of the output in chunk order, which keeps record order. The cancel flag is polled
+/// per chunk and per range.
 pub(crate) fn group_by<T: Copy + Default + Send + Sync>(
     n: usize,
     count: usize,
     record: impl Fn(usize) -> (u32, T) + Sync,
     opts: &Options,
 ) -> Result<(Vec<usize>, Vec<T>)> {
-    let parts = (rayon::current_num_threads() * 2).clamp(1, n.max(1));
-    let bounds: Vec<usize> = (0..=parts).map(|p| p * n / parts).collect();
-    let mut counts = vec![0usize; n];
-    groups_mut(&mut counts, &bounds).into_par_iter().enumerate().try_for_each(|(p, counts)| {
-        let lo = bounds[p];
-        for r in 0..count {
-            if let Some(c) = (record(r).0 as usize).checked_sub(lo).and_then(|g| counts.get_mut(g)) {
-                *c += 1;
+    let ranges = (rayon::current_num_threads() * 4).clamp(1, n.max(1));
+    let bounds: Vec<usize> = (0..=ranges).map(|p| p * n / ranges).collect();
+    // the range of group g: the largest p with bounds[p] <= g
+    let range_of = |g: u32| ((g as u64 + 1) * ranges as u64 - 1) as usize / n;
+    let chunks: Vec<Vec<Vec<(u32, T)>>> = (0..count.div_ceil(RECORD_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            opts.cancelled()?;
+            let records = c * RECORD_CHUNK..count.min((c + 1) * RECORD_CHUNK);
+            let mut buckets = vec![Vec::new(); ranges];
+            for r in records {
+                let (g, value) = record(r);
+                buckets[range_of(g)].push((g, value));
             }
+            Ok(buckets)
+        })
+        .collect::<Result<_>>()?;
+    let bucket = |p: usize| chunks.iter().flat_map(move |c| &c[p]);
+    let mut counts = vec![0usize; n];
+    groups_mut(&mut counts, &bounds).into_par_iter().enumerate().for_each(|(p, counts)| {
+        for &(g, _) in bucket(p) {
+            counts[g as usize - bounds[p]] += 1;
         }
-        opts.cancelled()
-    })?;
+    });
+    opts.cancelled()?;
     let mut offsets = Vec::with_capacity(n + 1);
     offsets.push(0);
     for c in counts {
@@ -65,19 +84,16 @@ pub(crate) fn group_by<T: Copy + Default + Send + Sync>(
     }
     let mut values = vec![T::default(); count];
     let value_bounds: Vec<usize> = bounds.iter().map(|&b| offsets[b]).collect();
-    groups_mut(&mut values, &value_bounds).into_par_iter().enumerate().try_for_each(|(p, out)| {
-        let (lo, hi) = (bounds[p], bounds[p + 1]);
-        let mut cursor: Vec<usize> = (lo..hi).map(|g| offsets[g] - offsets[lo]).collect();
-        for r in 0..count {
-            let (g, value) = record(r);
-            let g = g as usize;
-            if (lo..hi).contains(&g) {
-                out[cursor[g - lo]] = value;
-                cursor[g - lo] += 1;
-            }
+    groups_mut(&mut values, &value_bounds).into_par_iter().enumerate().for_each(|(p, out)| {
+        let lo = bounds[p];
+        let mut cursor: Vec<usize> = (lo..bounds[p + 1]).map(|g| offsets[g] - offsets[lo]).collect();
+        for &(g, value) in bucket(p) {
+            let slot = &mut cursor[g as usize - lo];
+            out[*slot] = value;
+            *slot += 1;
         }
-        opts.cancelled()
-    })?;
+    });
+    opts.cancelled()?;
     Ok((offsets, values))
 }
 
@@ -91,5 +107,25 @@ mod tests {
         let (offsets, values) = group_by(5, keys.len(), |r| (keys[r], r as u32), &Options::default()).unwrap();
         assert_eq!(offsets, vec![0, 2, 3, 3, 6, 6]);
         assert_eq!(values, vec![1, 4, 3, 0, 2, 5]);
+    }
+
+    #[test]
+    fn grouping_equals_a_stable_sort_for_any_thread_count() {
+        // more records than one chunk, skewed keys, empty groups
+        let (n, count) = (1000usize, 3 * RECORD_CHUNK + 17);
+        let key = |r: usize| ((r as u64 * 2654435761 % 1_000_003) % 997) as u32 / (1 + (r % 3) as u32);
+        let mut expected: Vec<(u32, u32)> = (0..count).map(|r| (key(r), r as u32)).collect();
+        expected.sort_by_key(|&(g, _)| g); // stable
+        for threads in [1, 2, 3] {
+            let (offsets, values) = crate::parallel::run(Some(threads), || {
+                group_by(n, count, |r| (key(r), r as u32), &Options::default())
+            })
+            .unwrap()
+            .unwrap();
+            assert_eq!(values, expected.iter().map(|&(_, r)| r).collect::<Vec<_>>());
+            for g in 0..n {
+                assert_eq!(offsets[g + 1] - offsets[g], expected.iter().filter(|e| e.0 as usize == g).count());
+            }
+        }
     }
 }

@@ -71,28 +71,26 @@ impl Topology {
     /// Builds the topology of a mesh (its user-order `cells`) in its internal order (see
     /// [`crate::layout`]).
     pub(crate) fn new<S: Simplex>(layout: &Layout<S>, cells: &[S::Cell], opts: &Options) -> Result<Self> {
-        let vertex_of = &layout.vertex_of[..];
+        #[derive(Default)]
+        struct Pattern {
+            cols: Vec<u32>,
+            slots: Vec<u32>,
+            diagonal: Vec<u32>,
+        }
         let rows = Rows::<S>::new(layout, cells, opts)?;
-        let (n, k) = (vertex_of.len(), S::CORNERS - 1);
-        let mut indices = vec![0u32; rows.nnz()];
-        let mut corner_slots = vec![0u32; k * rows.corners.items.len()];
-        let mut diagonal = vec![0u32; n];
-        let slot_offsets: Vec<usize> = rows.corners.offsets.iter().map(|o| k * o).collect();
-        let mut items: Vec<_> = rows_in_internal_order(&mut indices, &rows.indptr, vertex_of)
-            .into_iter()
-            .zip(groups_mut(&mut corner_slots, &slot_offsets))
-            .zip(diagonal.iter_mut())
-            .collect();
-        for_each_row(&mut items, opts, |v, ((cols, slots), diag)| {
-            rows.build(v, |row| {
-                cols.copy_from_slice(row.cols);
-                slots.copy_from_slice(row.slots);
-                **diag = row.diagonal;
-            })
+        let built = rows.build_all(opts, |_, row, out: &mut Pattern| {
+            out.cols.extend_from_slice(row.cols);
+            out.slots.extend_from_slice(row.slots);
+            out.diagonal.push(row.diagonal);
         })?;
-        drop(items);
-        let Rows { corners, indptr, .. } = rows;
-        Ok(Topology { n, corners, corner_slots, diagonal, vertex_of: vertex_of.to_vec(), indptr, indices })
+        let vertex_of = &layout.vertex_of[..];
+        let indices = built.gather(vertex_of, |p| &p.cols);
+        // slots and diagonals are per internal corner / row: the chunks in order
+        let corner_slots = built.chunks.iter().flat_map(|(p, _)| &p.slots).copied().collect();
+        let diagonal = built.chunks.iter().flat_map(|(p, _)| &p.diagonal).copied().collect();
+        let Built { indptr, .. } = built;
+        let n = vertex_of.len();
+        Ok(Topology { n, corners: rows.corners, corner_slots, diagonal, vertex_of: vertex_of.to_vec(), indptr, indices })
     }
 
     /// Internal vertex -> user vertex (row of the output).
@@ -168,36 +166,80 @@ pub(crate) struct Rows<'a, S: Simplex> {
     cells: &'a [S::Cell],
     vertex_of: &'a [u32],
     pub corners: Incidence,
-    /// Row starts in the user's numbering.
+}
+
+/// Every row of a pattern built once ([`Rows::build_all`]): the user-order row starts and,
+/// per chunk of [`ROW_CHUNK`] internal rows, its buffers and row lengths.
+pub(crate) struct Built<B> {
     pub indptr: Vec<usize>,
+    pub chunks: Vec<(B, Vec<u32>)>,
+}
+
+impl<B: Sync> Built<B> {
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        *self.indptr.last().expect("n + 1 entries")
+    }
+
+    /// One per-entry array of the rows in the user's order: `part(buffers)` is a chunk's
+    /// rows of it, concatenated in internal order.
+    pub fn gather<T: Copy + Default + Send + Sync>(&self, vertex_of: &[u32], part: impl Fn(&B) -> &Vec<T> + Sync) -> Vec<T> {
+        let mut out = vec![T::default(); self.nnz()];
+        let mut rows = rows_in_internal_order(&mut out, &self.indptr, vertex_of);
+        rows.par_chunks_mut(ROW_CHUNK).zip(&self.chunks).for_each(|(rows, (buffers, lengths))| {
+            let mut from = part(buffers).as_slice();
+            for (row, &len) in rows.iter_mut().zip(lengths) {
+                let (head, rest) = from.split_at(len as usize);
+                row.copy_from_slice(head);
+                from = rest;
+            }
+        });
+        out
+    }
 }
 
 impl<'a, S: Simplex> Rows<'a, S> {
-    /// Counts every row (a first pass that deduplicates neighbours with the per-thread
-    /// position array) and lays out `indptr` in the user's order. `user_cells` are the
-    /// mesh's elements in the user's order and numbering.
+    /// The element-corners around every vertex; `user_cells` are the mesh's elements in the
+    /// user's order and numbering.
     pub fn new(layout: &'a Layout<S>, user_cells: &[S::Cell], opts: &Options) -> Result<Self> {
-        let (cells, vertex_of) = (&layout.cells[..], &layout.vertex_of[..]);
-        let n = vertex_of.len();
         let corners = corner_incidence::<S>(user_cells, &layout.rank, &layout.internal_of, opts)?;
-        let mut rows = Rows { cells, vertex_of, corners, indptr: Vec::new() };
-        let mut lengths = vec![0usize; n];
-        for_each_row(&mut lengths, opts, |v, len| *len = rows.build_unsorted(v, |cols, _| cols.len()))?;
-        let mut by_user = vec![0usize; n];
-        for (&u, &len) in vertex_of.iter().zip(&lengths) {
+        Ok(Rows { cells: &layout.cells, vertex_of: &layout.vertex_of, corners })
+    }
+
+    /// Builds every internal row once ([`Rows::build`]), in parallel chunks of
+    /// [`ROW_CHUNK`] rows: `fill(v, row, buffers)` appends what row `v` contributes to its
+    /// chunk's buffers. The row starts in the user's order follow from the lengths, and
+    /// [`Built::gather`] moves per-entry arrays there: one build and one copy, instead of a
+    /// counting pass and a second build.
+    pub fn build_all<B: Default + Send>(&self, opts: &Options, fill: impl Fn(usize, Row, &mut B) + Sync) -> Result<Built<B>> {
+        let n = self.vertex_of.len();
+        let chunks: Vec<(B, Vec<u32>)> = (0..n.div_ceil(ROW_CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                opts.cancelled()?;
+                let mut buffers = B::default();
+                let lengths = (c * ROW_CHUNK..n.min((c + 1) * ROW_CHUNK))
+                    .map(|v| {
+                        self.build(v, |row| {
+                            let len = row.cols.len() as u32;
+                            fill(v, row, &mut buffers);
+                            len
+                        })
+                    })
+                    .collect();
+                Ok((buffers, lengths))
+            })
+            .collect::<Result<_>>()?;
+        let mut by_user = vec![0u32; n];
+        for (&u, &len) in self.vertex_of.iter().zip(chunks.iter().flat_map(|(_, l)| l)) {
             by_user[u as usize] = len;
         }
         let mut indptr = Vec::with_capacity(n + 1);
         indptr.push(0);
         for len in by_user {
-            indptr.push(indptr.last().expect("starts with 0") + len);
+            indptr.push(indptr.last().expect("starts with 0") + len as usize);
         }
-        rows.indptr = indptr;
-        Ok(rows)
-    }
-
-    pub fn nnz(&self) -> usize {
-        *self.indptr.last().expect("n + 1 entries")
+        Ok(Built { indptr, chunks })
     }
 
     /// Internal row `v` in order of first appearance: columns (internal ids) and the slots
