@@ -7,9 +7,12 @@ import json
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import tetlap
 import tetlap.properties as properties
+from tetlap import _core
 
 
 @pytest.fixture
@@ -149,3 +152,49 @@ def test_shape_mismatch(cube):
     V, T = cube
     with pytest.raises(tetlap.ShapeError):
         tetlap.check(sp.eye_array(3, format="csr"), V, T)
+
+
+def _dense_minus_laplacian(n, T, W):
+    """``-L = sum_t K_t`` from per-tet edge weights (local edges 01 02 03 12 13 23)."""
+    A = np.zeros((n, n))
+    for (a, b), w in zip([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)], W.T):
+        i, j = T[:, a], T[:, b]
+        np.add.at(A, (i, i), w)
+        np.add.at(A, (j, j), w)
+        np.add.at(A, (i, j), -w)
+        np.add.at(A, (j, i), -w)
+    return A
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), mean=st.floats(-0.5, 2.0), spread=st.floats(0.0, 3.0))
+def test_the_element_certificate_never_certifies_an_indefinite_sum(seed, mean, spread):
+    rng = np.random.default_rng(seed)
+    V, T = tetlap.meshes.cube(3, jitter=0.2, seed=seed % 997)
+    W = rng.normal(mean, spread, size=(len(T), 6))
+    lam = np.linalg.eigvalsh(_dense_minus_laplacian(len(V), T, W))[0]
+    tol = 1e-9 * np.abs(W).max()
+    verdict, name, details = _core.element_certificate(T, len(V), W, tol)
+    assert verdict in (True, None)
+    if verdict:
+        assert name == "element certificate" and lam >= -tol, (lam, details)
+    else:
+        assert name == "undetermined" and details["uncovered"] > 0
+
+
+def test_the_element_certificate_answers_when_neighbours_cover_the_negative_weights():
+    V, T = tetlap.meshes.cube(8, jitter=0.24, seed=5)
+    W = tetlap.tet_contributions(V, T, "dual")
+    assert (W < 0).any()
+    verdict, _, details = _core.element_certificate(T, len(V), W, 1e-9 * np.abs(W).max())
+    assert verdict is True and details["groups"] > 0
+    assert np.linalg.eigvalsh(_dense_minus_laplacian(len(V), T, W))[0] >= -1e-9 * np.abs(W).max()
+    # the primal needs no group: every K_t is a Gram matrix
+    P = tetlap.tet_contributions(V, T, "primal")
+    assert _core.element_certificate(T, len(V), P, 1e-9 * np.abs(P).max())[2]["groups"] == 0
+
+
+def test_the_element_certificate_refuses_weights_of_the_wrong_shape():
+    V, T = tetlap.meshes.cube(2)
+    with pytest.raises(tetlap.ShapeError):
+        _core.element_certificate(T, len(V), np.zeros((len(T), 3)), 1e-9)

@@ -13,7 +13,8 @@ from typing_extensions import Self
 
 __all__ = ["laplacian", "mass", "operators", "contributions", "triplets", "edge_weights",
            "vjp", "Mesh", "MAX_THREADS", "DELAUNAY_RTOL", "MAX_GROUP", "faces", "duplicates", "edges",
-           "quality", "non_delaunay", "check_operator", "negative_semidefinite"]
+           "quality", "non_delaunay", "check_operator", "negative_semidefinite",
+           "element_certificate"]
 
 MAX_THREADS: int
 DELAUNAY_RTOL: float
@@ -82,3 +83,6 @@ def check_operator(points: _F64, cells: _Cells, data: _F64, indices: _I64, indpt
 def negative_semidefinite(n: int, data: _F64, indices: _I64, indptr: _I64, tol: float, *,
                           threads: int | None = ...
                           ) -> tuple[bool | None, str, dict[str, int | float]]: ...
+def element_certificate(cells: _Cells, n: int, weights: _F64, tol: float, *,
+                        threads: int | None = ...
+                        ) -> tuple[Literal[True] | None, str, dict[str, int | float]]: ...

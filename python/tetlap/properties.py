@@ -160,17 +160,20 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
 
     ``L`` counts as negative semidefinite when ``lambda_min(-L) >= -1e-9 max|L|``
     (``NSD_RTOL``). The answer is, in this order: for ``n <= 2500``, the smallest
-    eigenvalue of ``-L`` (dense, exact); if ``L`` equals the mesh's primal Laplacian (to
-    1e-12 relative), **by construction**, since ``-L`` is a sum of per-tet Gram matrices
-    ``Vol_t G_t G_t^T``, each positive semidefinite; for ``kind=t`` in (0, 1) with ``L``
-    the affine combination, the certificate of its dual part; otherwise the certificate of
-    :func:`tetlap._core.negative_semidefinite`: non-negative weights (a weighted graph
-    Laplacian), or every negative weight covered by the positive weights of its
-    neighbourhood (a sum of small positive semidefinite matrices), or a witness vector on
-    a small neighbourhood with a negative Rayleigh quotient (indefinite, by interlacing).
-    Those steps cost ``O(size of the mesh)``. When none of them answers and ``n <= 30000``
-    (``SPARSE_NSD_MAX``), the inertia of a sparse LDL^T of ``-L + 1e-9 max|L| I`` decides
-    (seconds at that size); otherwise ``nsd`` is None and ``nsd_method`` says why.
+    eigenvalue of ``-L`` (dense, exact). Then the **element certificate**, if ``L`` is the
+    mesh's operator of ``kind`` (without ``kind``: the primal, then the dual) to 1e-12
+    relative: ``-L`` is the sum of per-tet matrices ``K_t``; each is checked positive
+    semidefinite (for the primal, ``Vol_t G_t G_t^T``: by construction), and tets that fail
+    are grouped with face neighbours until each group's sum is (a sum of positive
+    semidefinite matrices is one); the shifts of the pieces and the gap to ``L`` add up to
+    at most the tolerance. Then the certificate of :func:`tetlap._core.negative_semidefinite`
+    on the edge weights: non-negative weights (a weighted graph Laplacian), or every
+    negative weight covered by the positive weights of its neighbourhood, or a witness
+    vector on a small neighbourhood with a negative Rayleigh quotient (indefinite, by
+    interlacing). Those steps cost ``O(size of the mesh)``. When none of them answers and
+    ``n <= 30000`` (``SPARSE_NSD_MAX``), the inertia of a sparse LDL^T of
+    ``-L + 1e-9 max|L| I`` decides (seconds at that size); otherwise ``nsd`` is None and
+    ``nsd_method`` says why.
 
     Examples
     --------
@@ -273,43 +276,55 @@ def _nsd(L: sp.csr_array, V, T, scale: float, kind):
     """(is NSD, smallest eigenvalue of -L or a witness' Rayleigh quotient, method)."""
     n = L.shape[0]
     tol = NSD_RTOL * scale
-    A = -(L + L.T) / 2
     if n <= DENSE_NSD_MAX:
-        lam = float(interruptible(np.linalg.eigvalsh, A.toarray())[0])
+        lam = float(interruptible(np.linalg.eigvalsh, (-(L + L.T) / 2).toarray())[0])
         return lam >= -tol, lam, "dense eigenvalues"
-    if kind in (None, "primal"):
-        primal = assembly.laplacian(V, T, "primal", degenerate="skip")
-        gap = _difference(L, primal)
-        if gap <= 1e-12 * scale:
-            return True, None, (f"by construction: L is the primal Laplacian (to {gap:.1e}), a sum "
-                                "of per-tet Gram matrices")
-    target, note = L, ""
-    if isinstance(kind, numbers.Real) and not isinstance(kind, bool) and 0 < kind < 1:
-        primal = assembly.laplacian(V, T, "primal", degenerate="skip")
-        dual = assembly.laplacian(V, T, "dual", degenerate="skip")
-        gap = _difference(L, (1 - kind) * primal + kind * dual)
-        if gap <= 1e-12 * scale:
-            target, note = dual, f" of the dual part (L = {1 - kind:g} primal + {kind:g} dual)"
-    S = (target + target.T) / 2
+    answer = _element_certificate(L, V, T, scale, tol, kind)
+    if answer is not None:
+        return answer
+    S = (L + L.T) / 2
     S.sort_indices()
     verdict, name, details = _core.negative_semidefinite(n, *_csr_args(S), tol)
     if name == "local certificate":
-        name = (f"local certificate{note}: {details['groups']} neighbourhoods of <= "
+        name = (f"local certificate: {details['groups']} neighbourhoods of <= "
                 f"{details['largest']} vertices cover every negative weight")
     elif name == "indefinite":
         return False, details["rayleigh"], (
-            f"witness{note}: a vector on {details['support']} vertices around vertex "
+            f"witness: a vector on {details['support']} vertices around vertex "
             f"{details['vertex']} with Rayleigh quotient {details['rayleigh']:.3e}")
     elif name == "undetermined":
         reason = (f"{details['uncovered']} negative weights not covered by neighbourhoods of "
                   f"<= {_core.MAX_GROUP} vertices")
         if n > SPARSE_NSD_MAX:
-            return None, None, f"undetermined{note}: {reason} (n > {SPARSE_NSD_MAX})"
+            return None, None, f"undetermined: {reason} (n > {SPARSE_NSD_MAX})"
         negatives = _ldl_inertia(-S, tol)
         if negatives is None:
-            return None, None, f"undetermined{note}: {reason}; the LDL^T pivoted off the diagonal"
-        return negatives == 0, None, (f"inertia of a sparse LDL^T of -L + {tol:.1e} I{note}: "
+            return None, None, f"undetermined: {reason}; the LDL^T pivoted off the diagonal"
+        return negatives == 0, None, (f"inertia of a sparse LDL^T of -L + {tol:.1e} I: "
                                       f"{negatives} negative pivots ({reason})")
-    else:
-        name += note
     return verdict, None, name
+
+
+def _element_certificate(L, V, T, scale: float, tol: float, kind):
+    """The NSD answer from the per-tet matrices, if ``L`` is the mesh's operator ``kind``
+    (the primal, then the dual, when ``kind`` is None): ``-L = sum_t K_t + D`` with
+    ``|D| <= gap``; every ``K_t`` is checked, failing ones in small groups of neighbours
+    (:func:`tetlap._core.element_certificate`). None when ``L`` is none of them or a
+    group could not be certified."""
+    for candidate in ("primal", "dual") if kind is None else (kind,):
+        operator = assembly.laplacian(V, T, candidate, degenerate="skip")
+        gap = _difference(L, operator)
+        if gap > 1e-12 * scale:
+            continue
+        W = assembly.tet_contributions(V, T, candidate, degenerate="skip")
+        verdict, _, details = _core.element_certificate(T, V.shape[0], W, tol - gap)
+        if not verdict:
+            return None
+        name = candidate if isinstance(candidate, str) else f"t = {candidate:g} affine"
+        groups = details["groups"]
+        covered = (f", except {groups} groups of <= {details['largest']} neighbouring tets whose sums are"
+                   if groups else "")
+        construction = " (Gram matrices: by construction)" if candidate == "primal" else ""
+        return True, None, (f"element certificate: L is the {name} Laplacian (to {gap:.1e}), a sum "
+                            f"of per-tet matrices{construction}, each positive semidefinite{covered}")
+    return None

@@ -46,6 +46,15 @@ pub enum Semidefinite {
         /// Vertices of the largest group.
         largest: usize,
     },
+    /// Every element matrix `K_t` is positive semidefinite (up to a shift), except in
+    /// `groups` groups of face-neighbouring elements (at most `largest` each) whose sums
+    /// are: see [`crate::negative_semidefinite_by_elements`].
+    ElementCertificate {
+        /// Number of groups of elements.
+        groups: usize,
+        /// Elements in the largest group (1 when no group was needed).
+        largest: usize,
+    },
     /// Not semidefinite: a vector `x` supported on `support` vertices around vertex
     /// `vertex` has `x^T (-L) x / x^T x = rayleigh < -tol`.
     Indefinite {
@@ -98,7 +107,7 @@ fn vertices(l: &Csr, group: &Group) -> Vec<u32> {
 
 /// In-place Cholesky of the dense symmetric `n x n` matrix `a` (row-major) plus `shift I`:
 /// `Err(k)` at the first non-positive pivot `k`. The lower factor overwrites `a`.
-fn cholesky(a: &mut [f64], n: usize, shift: f64) -> std::result::Result<(), usize> {
+pub(crate) fn cholesky(a: &mut [f64], n: usize, shift: f64) -> std::result::Result<(), usize> {
     for j in 0..n {
         let mut d = a[j * n + j] + shift;
         for p in 0..j {

@@ -53,6 +53,7 @@ mod cached;
 mod check;
 mod csr;
 mod definite;
+mod element_certificate;
 pub mod derivatives;
 mod element;
 mod error;
@@ -74,6 +75,7 @@ pub use cached::{CachedMesh, Update};
 pub use check::{check_operator, OperatorCheck};
 pub use csr::{Coo, Csr, Mass};
 pub use definite::{negative_semidefinite, Semidefinite, MAX_GROUP};
+pub use element_certificate::negative_semidefinite_by_elements;
 pub use derivatives::{
     vjp, Columns, Cotangents, CsrRef, LaplacianCotangent, MassCotangent, MeshGradient,
 };

@@ -61,6 +61,54 @@ pub fn faces<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, 
     PyTuple::new(py, [table(py, &f.boundary)?, table(py, &f.interior)?, nonmanifold])
 }
 
+/// The element certificate of [`tetlap::negative_semidefinite_by_elements`] for edge
+/// weights given row-major, one row of `S::EDGES.len()` per element.
+struct ElementCertificateJob {
+    weights: Vec<f64>,
+    tol: f64,
+}
+
+impl CellsJob for ElementCertificateJob {
+    type Output = Semidefinite;
+    fn run<S: Simplex>(self, cells: &[S::Cell], n: usize, opts: &Options) -> tetlap::Result<Semidefinite> {
+        let weights: Vec<S::EdgeValues> = self
+            .weights
+            .chunks_exact(S::EDGES.len())
+            .map(|row| {
+                let mut w = S::EdgeValues::default();
+                w.as_mut().copy_from_slice(row);
+                w
+            })
+            .collect();
+        tetlap::negative_semidefinite_by_elements::<S>(cells, n, &weights, self.tol, opts)
+    }
+}
+
+/// `(verdict, name, details)` of the element certificate: `-L = sum_t K_t` with the
+/// element edge weights `weights` (m, 6) for tets or (m, 3) for triangles, local edge order
+/// lexicographic. `verdict` is True ("element certificate", details `groups`, `largest`)
+/// or None ("undetermined", details `uncovered`).
+#[pyfunction]
+#[pyo3(signature = (cells, n, weights, tol, *, threads=Default::default()))]
+pub fn element_certificate<'py>(
+    py: Python<'py>,
+    cells: PyReadonlyArray2<'py, i64>,
+    n: usize,
+    weights: PyReadonlyArray2<'py, f64>,
+    tol: f64,
+    threads: Threads,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let input = CellsInput::new(py, &cells, n)?;
+    let edges = if cells.shape()[1] == 4 { 6 } else { 3 };
+    if weights.shape() != [cells.shape()[0], edges] {
+        return Err(shape_error(py, format!("weights must have shape ({}, {edges}), got {:?}", cells.shape()[0], weights.shape())));
+    }
+    let job = ElementCertificateJob { weights: contiguous(py, &weights)?.to_vec(), tol };
+    let (opts, cancel) = options(threads);
+    let answer = guarded(py, &cancel, move || input.run(job, &opts))?;
+    verdict(py, answer)
+}
+
 /// `(m,)` bool: the element repeats the vertex set of an element with a lower index.
 #[pyfunction]
 #[pyo3(signature = (cells, n, *, threads=Default::default()))]
@@ -221,6 +269,12 @@ pub fn negative_semidefinite<'py>(
     let l = csr(py, n, &data, &indices, &indptr)?;
     let (opts, cancel) = options(threads);
     let answer = guarded(py, &cancel, move || tetlap::negative_semidefinite(&l, tol, &opts))?;
+    verdict(py, answer)
+}
+
+/// `(verdict, name, details)` of a [`Semidefinite`] answer: True, False or None, a short
+/// name and a dict of the certificate's numbers.
+fn verdict(py: Python<'_>, answer: Semidefinite) -> PyResult<Bound<'_, PyTuple>> {
     let details = PyDict::new(py);
     let (verdict, name): (Option<bool>, &str) = match answer {
         Semidefinite::NonNegativeWeights => (Some(true), "non-negative weights"),
@@ -228,6 +282,11 @@ pub fn negative_semidefinite<'py>(
             details.set_item("groups", groups)?;
             details.set_item("largest", largest)?;
             (Some(true), "local certificate")
+        }
+        Semidefinite::ElementCertificate { groups, largest } => {
+            details.set_item("groups", groups)?;
+            details.set_item("largest", largest)?;
+            (Some(true), "element certificate")
         }
         Semidefinite::Indefinite { rayleigh, support, vertex } => {
             details.set_item("rayleigh", rayleigh)?;

@@ -28,7 +28,9 @@ mod _core {
     use crate::mesh::PyMesh;
 
     #[pymodule_export]
-    use crate::diagnostics::{check_operator, duplicates, edges, faces, negative_semidefinite, non_delaunay, quality};
+    use crate::diagnostics::{
+        check_operator, duplicates, edges, element_certificate, faces, negative_semidefinite, non_delaunay, quality,
+    };
     #[pymodule_export]
     use crate::derivatives::vjp;
 
