@@ -242,7 +242,11 @@ def summary(V, T=None, rtol: float = DELAUNAY_RTOL) -> dict:
     >>> s["n_tets"], s["n_boundary_faces"], s["non_delaunay_face_fraction"]
     (48, 48, 0.0)
     """
-    V, T = _geometry(V, T)
+    return _summary(*_geometry(V, T), rtol)[0]
+
+
+def _summary(V, T, rtol: float = DELAUNAY_RTOL) -> tuple[dict, np.ndarray]:
+    """:func:`summary` of validated arrays, and the (n,) bool mask of boundary vertices."""
     n, in_r3 = len(V), V.shape[1] == 3
     boundary, interior, nonmanifold = _core.faces(T, n)
     volume, dihedral, well = _core.quality(V, T)
@@ -277,4 +281,4 @@ def summary(V, T=None, rtol: float = DELAUNAY_RTOL) -> dict:
         result["n_non_delaunay_faces"] = int(flags.sum())
         result["non_delaunay_face_fraction"] = float(flags.mean()) if len(flags) else 0.0
         result["non_delaunay_tet_fraction"] = float(bad.mean())
-    return result
+    return result, on_boundary

@@ -186,12 +186,21 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
-    n = V.shape[0]
     if kind is not None and not (kind in ("primal", "dual") or (
             isinstance(kind, numbers.Real) and not isinstance(kind, bool) and 0 <= kind <= 1)):
         raise OptionError(f'kind must be None, "primal", "dual" or a float t in [0, 1], got {kind!r}')
+    return _check(L, V, T, M, kind=kind, negative_tol=negative_tol, nsd=nsd)
+
+
+def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=None,
+           assembled=False) -> Report:
+    """:func:`check` on validated ``V`` (float64) and ``T`` (int64), reusing what the
+    caller already has: the ``boundary`` vertex mask, the ``mesh_volume``, and
+    ``assembled=True`` when ``L`` is ``laplacian(V, T, kind, degenerate="skip")`` itself."""
+    n = V.shape[0]
     L = _arrays.matrix(L, n, finite=False)  # a NaN or Inf is reported, not refused
-    boundary = diagnostics.boundary_vertices(T, n)
+    if boundary is None:
+        boundary = diagnostics.boundary_vertices(T, n)
     c = _core.check_operator(V, T, *_csr_args(L), boundary, float(negative_tol))
     notes: list[str] = []
     scale = c["scale"] if c["scale"] > 0 else 1.0
@@ -210,7 +219,7 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     if nsd and not c["finite"]:
         method = "skipped (not finite)"
     elif nsd:
-        nsd_ok, min_eig, method = _nsd(L, V, T, scale, kind)
+        nsd_ok, min_eig, method = _nsd(L, V, T, scale, kind, assembled)
 
     edges, inner = c["n_edges"], c["n_edges_inner"]
     report = Report(
@@ -243,7 +252,8 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
         report.mass_min = float(lumped.min())
         report.mass_nonpositive = int((lumped[diagnostics.referenced_vertices(T, n)] <= 0).sum())
         report.mass_total = float(M.sum())
-        report.mesh_volume = float(np.abs(diagnostics.signed_volumes(V, T)).sum())
+        report.mesh_volume = (float(np.abs(diagnostics.signed_volumes(V, T)).sum())
+                              if mesh_volume is None else mesh_volume)
     return report
 
 
@@ -272,14 +282,14 @@ def _difference(A: sp.csr_array, B: sp.csr_array) -> float:
     return float(np.abs(A - B).sum(axis=1).max()) if A.nnz or B.nnz else 0.0
 
 
-def _nsd(L: sp.csr_array, V, T, scale: float, kind):
+def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool):
     """(is NSD, smallest eigenvalue of -L or a witness' Rayleigh quotient, method)."""
     n = L.shape[0]
     tol = NSD_RTOL * scale
     if n <= DENSE_NSD_MAX:
         lam = float(interruptible(np.linalg.eigvalsh, (-(L + L.T) / 2).toarray())[0])
         return lam >= -tol, lam, "dense eigenvalues"
-    answer = _element_certificate(L, V, T, scale, tol, kind)
+    answer = _element_certificate(L, V, T, scale, tol, kind, assembled)
     if answer is not None:
         return answer
     S = (L + L.T) / 2
@@ -305,15 +315,14 @@ def _nsd(L: sp.csr_array, V, T, scale: float, kind):
     return verdict, None, name
 
 
-def _element_certificate(L, V, T, scale: float, tol: float, kind):
+def _element_certificate(L, V, T, scale: float, tol: float, kind, assembled: bool):
     """The NSD answer from the per-tet matrices, if ``L`` is the mesh's operator ``kind``
     (the primal, then the dual, when ``kind`` is None): ``-L = sum_t K_t + D`` with
     ``|D| <= gap``; every ``K_t`` is checked, failing ones in small groups of neighbours
     (:func:`tetlap._core.element_certificate`). None when ``L`` is none of them or a
-    group could not be certified."""
+    group could not be certified. ``assembled``: ``L`` is that operator (gap zero)."""
     for candidate in ("primal", "dual") if kind is None else (kind,):
-        operator = assembly.laplacian(V, T, candidate, degenerate="skip")
-        gap = _difference(L, operator)
+        gap = 0.0 if assembled else _difference(L, assembly.laplacian(V, T, candidate, degenerate="skip"))
         if gap > 1e-12 * scale:
             continue
         W = assembly.tet_contributions(V, T, candidate, degenerate="skip")
