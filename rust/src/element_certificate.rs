@@ -15,9 +15,9 @@
 //! pieces at any vertex (`c` is bounded by the largest vertex valence in elements),
 //! `lambda_min(sum P) >= -c tau`: the shift is `tau = tol / c`. This certifies the sum of
 //! the element matrices; the caller accounts for any difference between that sum and a
-//! given matrix. When a group cannot be certified the answer is
-//! [`Semidefinite::Undetermined`]: a failing group does not prove indefiniteness (the
-//! elements beyond it may compensate).
+//! given matrix. At the first group that cannot be certified the answer is
+//! [`Semidefinite::Undetermined`] (`uncovered: 1`): a failing group does not prove
+//! indefiniteness (the elements beyond it may compensate).
 
 use crate::definite::{cholesky, Semidefinite, MAX_GROUP};
 use crate::error::Result;
@@ -80,7 +80,6 @@ fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[S::EdgeValues], t
     const NONE: u32 = u32::MAX;
     let mut owner = vec![NONE; cells.len()];
     let mut members: Vec<Vec<u32>> = Vec::new();
-    let mut uncovered = 0;
     for (k, &t) in failing.iter().enumerate() {
         if k % 256 == 0 {
             opts.cancelled()?;
@@ -111,7 +110,10 @@ fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[S::EdgeValues], t
                 break;
             }
         }
-        uncovered += usize::from(!certified);
+        if !certified {
+            // no certificate for the sum: stop at the first group that has none
+            return Ok(Semidefinite::Undetermined { uncovered: 1, residual: 0.0 });
+        }
         let id = members.len() as u32;
         for &e in &group {
             owner[e as usize] = id;
@@ -119,9 +121,6 @@ fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[S::EdgeValues], t
         members.push(group);
     }
     let live: Vec<&Vec<u32>> = members.iter().filter(|m| !m.is_empty()).collect();
-    if uncovered > 0 {
-        return Ok(Semidefinite::Undetermined { uncovered, residual: 0.0 });
-    }
     let largest = live.iter().map(|m| m.len()).max().unwrap_or(1);
     Ok(Semidefinite::ElementCertificate { groups: live.len(), largest })
 }
