@@ -80,16 +80,15 @@ fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[S::EdgeValues], t
     const NONE: u32 = u32::MAX;
     let mut owner = vec![NONE; cells.len()];
     let mut members: Vec<Vec<u32>> = Vec::new();
-    for (k, &t) in failing.iter().enumerate() {
-        if k % 256 == 0 {
-            opts.cancelled()?;
-        }
+    for &t in &failing {
+        opts.cancelled()?;
         if owner[t as usize] != NONE {
             continue;
         }
         let mut group = vec![t];
         let mut certified = false;
         for _ in 0..RINGS {
+            opts.cancelled()?;
             let mut grown = group.clone();
             for &e in &group {
                 for &f in neighbours.of(e as usize) {
