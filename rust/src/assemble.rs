@@ -169,15 +169,9 @@ pub(crate) fn assemble<S: Simplex>(
 /// `indptr`) with a value that is not finite. Every element's own values are finite by
 /// then, so such a value can only be a sum that left the `f64` range.
 pub(crate) fn finite_rows(indptr: &[usize], data: &[f64]) -> Result<()> {
-    const CHUNK: usize = 1 << 14;
-    let bad = |x: &f64| !x.is_finite();
-    match data.par_chunks(CHUNK).position_first(|c| c.iter().any(bad)) {
+    match crate::parallel::position_first(data, |_, x| !x.is_finite()) {
         None => Ok(()),
-        Some(c) => {
-            let k = c * CHUNK + data[c * CHUNK..].iter().position(bad).expect("found in this chunk");
-            let vertex = indptr.partition_point(|&p| p <= k) - 1;
-            Err(crate::Error::SumOverflow { vertex })
-        }
+        Some(k) => Err(crate::Error::SumOverflow { vertex: indptr.partition_point(|&p| p <= k) - 1 }),
     }
 }
 

@@ -132,7 +132,7 @@ impl CsrRef<'_> {
         if let Some(i) = self.indptr.windows(2).position(|w| w[0] > w[1]) {
             return shape(format!("indptr decreases at row {i}"));
         }
-        let bad_row = (0..n).into_par_iter().position_first(|i| {
+        let bad_row = crate::parallel::position_first(&self.indptr[..n], |i, _| {
             let row = &self.indices[self.indptr[i]..self.indptr[i + 1]];
             row.windows(2).any(|w| w[0] >= w[1]) || row.last().is_some_and(|&j| j as usize >= n)
         });
@@ -233,7 +233,7 @@ pub struct MeshGradient {
 }
 
 fn check_finite(values: &[f64], what: &'static str) -> Result<()> {
-    match values.par_iter().position_first(|x| !x.is_finite()) {
+    match crate::parallel::position_first(values, |_, x| !x.is_finite()) {
         Some(index) => Err(Error::NonFiniteCotangent { what, index, value: values[index] }),
         None => Ok(()),
     }
@@ -500,10 +500,7 @@ pub fn vjp(mesh: &TetMesh, cotangents: &Cotangents, opts: &Options) -> Result<Me
         opts.cancelled()?;
         let g = gather(&slots, &incidence, &layout, n);
         // per-tet values are finite; only a sum can overflow
-        let bad = g
-            .points
-            .par_iter()
-            .position_first(|x| !x.is_finite())
+        let bad = crate::parallel::position_first(&g.points, |_, x| !x.is_finite())
             .map(|k| k / dim)
             .or_else(|| g.weights.as_ref().and_then(|w| w.iter().position(|x| !x.is_finite())));
         if let Some(vertex) = bad {

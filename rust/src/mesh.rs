@@ -134,7 +134,7 @@ pub(crate) fn check_points(points: &[f64], dim: usize, min_dim: usize) -> Result
     if n > MAX_VERTICES {
         return Err(Error::TooManyVertices { n_vertices: n, max: MAX_VERTICES });
     }
-    if let Some(k) = points.par_iter().position_first(|x| !x.is_finite()) {
+    if let Some(k) = crate::parallel::position_first(points, |_, x| !x.is_finite()) {
         return Err(Error::NonFiniteCoordinate {
             vertex: k / dim,
             coordinate: k % dim,
@@ -171,7 +171,7 @@ fn check_cells<S: Simplex>(cells: &[S::Cell], n: usize) -> Result<()> {
         None
     };
     // the first bad element, whatever the scheduling
-    match cells.par_iter().enumerate().position_first(|(t, c)| problem(t, c).is_some()) {
+    match crate::parallel::position_first(cells, |t, c| problem(t, c).is_some()) {
         Some(t) => Err(problem(t, &cells[t]).expect("found above")),
         None => Ok(()),
     }
@@ -198,7 +198,7 @@ pub fn cells_from_i64<S: Simplex>(flat: &[i64], n_vertices: usize) -> Result<Vec
         return Err(Error::Shape { what: format!("{} indices do not form rows of {k}", flat.len()) });
     }
     let out_of_range = |i: i64| i < 0 || i as u64 >= n_vertices as u64;
-    if let Some(at) = flat.par_iter().position_first(|&i| out_of_range(i)) {
+    if let Some(at) = crate::parallel::position_first(flat, |_, &i| out_of_range(i)) {
         return Err(Error::IndexOutOfRange {
             element: at / k,
             corner: at % k,
