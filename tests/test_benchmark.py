@@ -47,6 +47,20 @@ def test_delaunay_is_qhulls_tetrahedralisation_in_qhulls_order():
     assert abs(len(T) - n_tets) < 0.05 * n_tets
 
 
+def test_ordered_is_a_local_renumbering_of_the_delaunay_mesh():
+    V, T = benchmark.mesh("delaunay", "10k")
+    V2, T2 = benchmark.mesh("ordered", "10k")
+    order, order2 = np.lexsort(V.T), np.lexsort(V2.T)
+    np.testing.assert_array_equal(V[order], V2[order2])
+    new_of_old = np.empty(len(V), dtype=np.int64)
+    new_of_old[order] = order2
+    assert sorted_tets(new_of_old[T]) == sorted_tets(T2)  # the same tets
+    assert (np.diff(T2.min(axis=1)) >= 0).all()  # tets by smallest vertex
+    # locality: consecutive vertices are near each other, unlike in qhull's order
+    step = lambda V: np.linalg.norm(np.diff(V, axis=0), axis=1).mean()  # noqa: E731
+    assert step(V2) < 0.3 * step(V)
+
+
 def test_shuffled_is_a_renumbering_of_the_delaunay_mesh():
     V, T = benchmark.mesh("delaunay", "10k")
     V2, T2 = benchmark.mesh("shuffled", "10k")

@@ -9,7 +9,9 @@ installed.
 
 Mesh kinds: ``kuhn`` (a jittered Kuhn grid of the unit cube, near-perfect memory order),
 ``delaunay`` (``scipy.spatial.Delaunay`` of uniform random points, in qhull's own order),
-``shuffled`` (that mesh with its vertices and tets randomly renumbered) and any mesh file
+``shuffled`` (that mesh with its vertices and tets randomly renumbered), ``ordered`` (that
+mesh with its vertices renumbered along a Morton curve and its tets sorted by smallest
+vertex: the well-ordered reference for the cost of random order) and any mesh file
 (``--mesh FILE``).
 """
 
@@ -35,7 +37,7 @@ from .properties import check
 SIZES = {"10k": 12, "100k": 26, "1M": 55, "4M": 87}
 #: Tets per point of the Delaunay tetrahedralisation of uniform points in a cube.
 TETS_PER_POINT = 6.73
-KINDS = ("kuhn", "delaunay", "shuffled")
+KINDS = ("kuhn", "delaunay", "shuffled", "ordered")
 #: Cases that run unless ``--operators`` asks for others.
 DEFAULT_CASES = ("floor", "tetlap primal", "tetlap dual", "tetlap L+M primal+barycentric",
                  "tetlap L+M dual+circumcentric", "Mesh: update all + L+M dual",
@@ -63,13 +65,28 @@ def shuffled(V, T, seed: int = 1):
     return V[perm], inverse[T][rng.permutation(len(T))]
 
 
+def ordered(V, T):
+    """The mesh with its vertices along a Morton (Z-order) curve of their coordinates
+    quantised to 2^21 cells per axis, and its tets sorted by their smallest vertex."""
+    q = ((V - V.min(axis=0)) / max(np.ptp(V, axis=0).max(), 1e-300) * (2**21 - 1)).astype(np.uint64)
+    code = np.zeros(len(V), dtype=np.uint64)
+    for bit in range(21):
+        for axis in range(3):
+            code |= ((q[:, axis] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
+    perm = np.argsort(code, kind="stable")
+    new_of_old = np.empty(len(V), dtype=np.int64)
+    new_of_old[perm] = np.arange(len(V))
+    T2 = new_of_old[T]
+    return V[perm], T2[np.argsort(T2.min(axis=1), kind="stable")]
+
+
 def mesh(kind: str, size: str):
-    """The benchmark mesh of ``kind`` (``kuhn``, ``delaunay``, ``shuffled``) and ``size``."""
+    """The benchmark mesh of ``kind`` (one of ``KINDS``) and ``size``."""
     if kind == "kuhn":
         return meshes.cube(SIZES[size], jitter=0.2, seed=0)
     n_tets = 6 * SIZES[size] ** 3
     V, T = delaunay(n_tets)
-    return shuffled(V, T) if kind == "shuffled" else (V, T)
+    return {"shuffled": shuffled, "ordered": ordered}.get(kind, lambda V, T: (V, T))(V, T)
 
 
 def numpy_primal(V, T):

@@ -226,8 +226,8 @@ def parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="timings against the floor and the baselines",
                            description="Median timings of tetlap and the baselines installed, "
                                        "side by side, on several kinds of mesh.")
-    bench.add_argument("--kinds", nargs="+", choices=["kuhn", "delaunay", "shuffled"],
-                       help="mesh kinds (default: all three; --quick: kuhn delaunay)")
+    bench.add_argument("--kinds", nargs="+", choices=["kuhn", "delaunay", "shuffled", "ordered"],
+                       help="mesh kinds (default: all four; --quick: kuhn delaunay)")
     bench.add_argument("--sizes", nargs="+", choices=["10k", "100k", "1M", "4M"],
                        help="sizes in tets (default: 100k 1M; --quick: 10k 100k)")
     bench.add_argument("--mesh", nargs="+", metavar="FILE", help="also time these mesh files")
