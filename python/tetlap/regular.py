@@ -720,24 +720,33 @@ def _mass_rows(V, T, w, l2, m_plain, rows, mass_floor):
     return B, aim, 1.0 / np.maximum(norms, 1e-300)
 
 
-def _repair_masses(problem, V, T, u, l2, m_plain, mass_floor, floor_t, lo, hi, deadline,
-                   notes, rounds: int = 3, iterations: int = 300):
-    """Keep the weighted masses above ``mass_floor`` times the positive plain ones: the
-    masses below it, linearised (exact derivatives by the complex step), join the
-    shortfall as hinge rows while the faces keep their floors; ``rounds`` linearisations
-    of at most ``iterations`` L-BFGS-B steps. Returns u (the input if nothing better)."""
+def _mass_deficit(V, T, w, m_plain, mass_floor):
+    """(vertices whose weighted mass is below ``mass_floor`` times a positive plain mass,
+    the sum of their relative deficits)."""
+    m = assembly.mass(V, T, "circumcentric", weights=w).diagonal()
     positive = m_plain > 0
-    low_rows = np.zeros(0, dtype=np.int64)
+    low = np.flatnonzero(positive & (m < mass_floor * m_plain))
+    return low, float(np.sum(mass_floor - m[low] / m_plain[low]))
+
+
+def _repair_masses(problem, V, T, u, l2, m_plain, mass_floor, floor_t, lo, hi, deadline,
+                   notes, rounds: int = 8, iterations: int = 300, radius: float = np.inf):
+    """Keep the weighted masses above ``mass_floor`` times the positive plain ones: the
+    masses below it, linearised at the current weights (exact derivatives by the complex
+    step), join the shortfall as hinge rows, then the faces alone are searched back to
+    half their floors when that broke them (optionally in a trust region
+    ``|u - u_k| <= radius``); ``rounds`` steps of at most ``iterations`` L-BFGS-B
+    iterations each, a step kept only when it lowers the masses' total deficit.
+    Returns u."""
     aim_faces = floor_t + 0.1 * np.maximum(floor_t, 0.0)
     floor_t = np.minimum(floor_t, floor_t / 2)    # the faces may give up half their floor
+    rows = np.zeros(0, dtype=np.int64)
+    low, deficit = _mass_deficit(V, T, u * l2, m_plain, mass_floor)
     for _ in range(rounds):
-        w = u * l2
-        m = assembly.mass(V, T, "circumcentric", weights=w).diagonal()
-        low = np.flatnonzero(positive & (m < mass_floor * m_plain))
         if not len(low) or (deadline is not None and time.perf_counter() > deadline):
             break
-        low_rows = np.union1d(low_rows, low)
-        B, aim, wgt = _mass_rows(V, T, w, l2, m_plain, low_rows, mass_floor)
+        rows = np.union1d(rows, low)
+        B, aim, wgt = _mass_rows(V, T, u * l2, l2, m_plain, rows, mass_floor)
 
         def fun(v, B=B, aim=aim, wgt=wgt):
             f, grad = problem.shortfall(v, aim_faces)
@@ -745,16 +754,22 @@ def _repair_masses(problem, V, T, u, l2, m_plain, mass_floor, floor_t, lo, hi, d
             return f + 0.5 * _inner(r, wgt * r), grad - B.T @ (wgt * r)
 
         def stop(v, B=B, aim=aim):
-            return bool((problem.margins(v) >= floor_t).all()
-                        and (B @ v >= aim - 0.05 * np.abs(aim)).all()) or (
+            return bool((problem.margins(v) >= floor_t).all() and (B @ v >= aim).all()) or (
                 deadline is not None and time.perf_counter() > deadline)
 
-        v, _ = _minimise(fun, u, lo, hi, stop, iterations)
-        if not (problem.margins(v) >= np.minimum(floor_t, floor_t / 2)).all():
-            notes.append("the masses could not be kept up with the face floors: kept the "
-                         "last weights that meet the floors")
+        v, _ = _minimise(fun, u, np.maximum(lo, u - radius), np.minimum(hi, u + radius),
+                         stop, iterations)
+        if not (problem.margins(v) >= floor_t).all():      # back to the faces' floors
+            v, _ = _minimise(lambda x: problem.shortfall(x, aim_faces), v, lo, hi,
+                             lambda x: bool((problem.margins(x) >= floor_t).all()),
+                             iterations)
+        low_v, deficit_v = _mass_deficit(V, T, v * l2, m_plain, mass_floor)
+        if not (problem.margins(v) >= floor_t).all() or deficit_v >= deficit:
             break
-        u = v
+        u, low, deficit = v, low_v, deficit_v
+    if len(low):
+        notes.append(f"{len(low)} weighted masses stay below {mass_floor:g} x their plain "
+                     "value (no weights found that keep the faces regular and lift them)")
     return u
 
 
@@ -820,8 +835,9 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
     4. *Masses* (regular meshes, ``mass_floor``): vertices whose weighted mass falls below
        ``mass_floor`` times a positive plain mass get a hinge row on their mass,
        linearised at the current weights (exact derivatives by the complex step of a NumPy
-       copy of the core's kernel); up to 3 rounds of 300 iterations, the faces kept at
-       half their floors at least (``margin_floor`` reports the floor before that).
+       copy of the core's kernel), then the faces alone back to their floors; up to 8
+       rounds of 300 iterations, each kept when it lowers the total deficit, the faces kept at half their floors at
+       least (``margin_floor`` reports the floor before that).
 
     When the mesh is not regular (or undecided) the weights are the search's last ones
     (they minimise the sum of squared shortfalls, which spreads violations rather than
