@@ -822,7 +822,10 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
        margin, so it is a squared distance to the face's half-space) by L-BFGS-B
        (SciPy) from ``w = 0`` within ``|w_i| <= max_weight * l_i^2``, with ``aim_f``
        a little above ``target_margin`` on the faces violated at ``w = 0`` and above
-       ``min(plain margin / 2, target_margin)`` on the others. It stops as soon as every face
+       ``min(plain margin / 2, target_margin)`` on the others. Boundary weights are
+       kept ``>= 0`` first (boundary power cells then only grow, which keeps the boundary
+       masses positive: 24 masses lost -> 0 on ``flipfree_fish_blub``); when that search
+       is undecided, it is run again with weights of either sign. It stops as soon as every face
        reaches its floor: *regular*, confirmed by the margin test (:data:`REGULAR_RTOL`).
        Starting from 0 keeps the weights local (zero away from the repairs) and small.
     3. *Certificate*: when the search converges short of the floors, the conditions still
@@ -904,13 +907,20 @@ def _search_weights(V, T, cond, on_boundary, violated0, m_plain, deadline, targe
     allowed = np.ones(len(V), dtype=bool) if boundary == "free" else ~on_boundary
     hi = np.where(allowed, float(max_weight), 0.0)
     problem = _Problem.of(cond, l2)
-    outcome = _decide(problem, violated0[problem.rows], target_margin, -hi, hi, deadline,
-                      max_iterations, notes)
+    iterations = 0
+    for lo in (np.where(on_boundary, 0.0, -hi), -hi):
+        outcome = _decide(problem, violated0[problem.rows], target_margin, lo, hi, deadline,
+                          max_iterations, notes)
+        iterations += outcome["iterations"]
+        if outcome["status"] != "undecided" or not (on_boundary & allowed).any():
+            break
+        notes.append("boundary weights >= 0 were not enough: weights of either sign")
+    outcome["iterations"] = iterations
     outcome["problem"] = problem
     u = outcome["u"]
     if outcome["status"] == "regular" and mass_floor is not None:
         u = _repair_masses(problem, V, T, u, l2, m_plain, mass_floor, outcome["floor_t"],
-                           -hi, hi, deadline, notes)
+                           lo, hi, deadline, notes)
     w = u * l2
     if outcome["status"] != "regular":
         violated = cond.margins(w) < -cond.tolerance(w, rtol)
