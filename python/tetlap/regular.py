@@ -825,7 +825,7 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
        ``min(plain margin / 2, target_margin)`` on the others. Boundary weights are
        kept ``>= 0`` first (boundary power cells then only grow, which keeps the boundary
        masses positive: 24 masses lost -> 0 on ``flipfree_fish_blub``); when that search
-       is undecided, it is run again with weights of either sign. It stops as soon as every face
+       is undecided, it is run again with weights of either sign (same budget). It stops as soon as every face
        reaches its floor: *regular*, confirmed by the margin test (:data:`REGULAR_RTOL`).
        Starting from 0 keeps the weights local (zero away from the repairs) and small.
     3. *Certificate*: when the search converges short of the floors, the conditions still
@@ -910,9 +910,10 @@ def _search_weights(V, T, cond, on_boundary, violated0, m_plain, deadline, targe
     iterations = 0
     for lo in (np.where(on_boundary, 0.0, -hi), -hi):
         outcome = _decide(problem, violated0[problem.rows], target_margin, lo, hi, deadline,
-                          max_iterations, notes)
+                          max_iterations - iterations, notes)
         iterations += outcome["iterations"]
-        if outcome["status"] != "undecided" or not (on_boundary & allowed).any():
+        if (outcome["status"] != "undecided" or not (on_boundary & allowed).any()
+                or iterations >= max_iterations):
             break
         notes.append("boundary weights >= 0 were not enough: weights of either sign")
     outcome["iterations"] = iterations
