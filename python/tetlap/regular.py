@@ -367,8 +367,8 @@ class RegularWeights:
         so one of them has a margin ``<= 0`` whatever ``w``; or folded faces); or
         ``"undecided"``: stopped at ``time_limit`` or ``max_iterations``, the weights are
         the best found (never more violated faces than ``w = 0``).
-    certificate_faces : (k, 3) int64, the faces of the proof when ``status == "not
-        regular"`` (the folded faces when there are any, else the support of the
+    certificate_faces : (k, 3) int64, the faces of the proof when the status is
+        ``"not regular"`` (the folded faces when there are any, else the support of the
         multipliers); empty otherwise.
     certificate_multipliers : (k,) float64 >= 0, the Gordan multipliers ``y`` of
         ``certificate_faces``: ``sum_f y_f margin_f(w)`` is the same (0) for every ``w``,
