@@ -463,8 +463,11 @@ def _vertex_lengths(V, T) -> np.ndarray:
 
 def _dual(V, T, w, on_boundary):
     """The (weighted) dual's negative interior weights, as :func:`tetlap.check` counts
-    them, and its circumcentric masses; one assembly and one pass of the core's checks."""
-    L, M = assembly.operators(V, T, "dual", "circumcentric", weights=w)
+    them, and its circumcentric masses; one assembly and one pass of the core's checks.
+    Tets the core refuses with these weights (weights far larger than their squared
+    edges: its accuracy guard) are skipped in the counts."""
+    L, M = assembly.operators(V, T, "dual", "circumcentric", weights=w,
+                              degenerate="raise" if w is None else "skip")
     c = _core.check_operator(V, T, L.data, L.indices.astype(np.int64),
                              L.indptr.astype(np.int64), on_boundary, NEGATIVE_TOL)
     return int(c["n_negative_inner"]), M.diagonal(), c["linear_precision"]
@@ -710,7 +713,7 @@ def _decide(problem, violated, target, lo, hi, deadline, max_iterations, notes):
 def _mass_rows(V, T, w, l2, m_plain, rows, mass_floor):
     """The masses of ``rows`` linearised at ``w`` as conditions ``B u >= aim`` in ``u``
     units, each scaled by the plain mass: (B (k, n) csr_array, aim (k,), wgt (k,))."""
-    m = assembly.mass(V, T, "circumcentric", weights=w).diagonal()
+    m = assembly.mass(V, T, "circumcentric", weights=w, degenerate="skip").diagonal()
     J = _mass_jacobian(V, T, w, rows)                  # d m_rows / d w, (k, n)
     scale = 1.0 / m_plain[rows]
     B = sp.csr_array(sp.diags_array(scale) @ J @ sp.diags_array(l2))
@@ -723,7 +726,7 @@ def _mass_rows(V, T, w, l2, m_plain, rows, mass_floor):
 def _mass_deficit(V, T, w, m_plain, mass_floor):
     """(vertices whose weighted mass is below ``mass_floor`` times a positive plain mass,
     the sum of their relative deficits)."""
-    m = assembly.mass(V, T, "circumcentric", weights=w).diagonal()
+    m = assembly.mass(V, T, "circumcentric", weights=w, degenerate="skip").diagonal()
     positive = m_plain > 0
     low = np.flatnonzero(positive & (m < mass_floor * m_plain))
     return low, float(np.sum(mass_floor - m[low] / m_plain[low]))
@@ -1069,14 +1072,15 @@ def summary(V, T, result: RegularWeights | None = None, *, nsd: bool = False,
         raise _arrays.ShapeError(f"the result has {len(r.weights)} weights, the mesh "
                                  f"{len(V)} vertices")
     reports = dict(reports or {})
-    kinds = {"dual": ("dual", None), "weighted_dual": ("dual", r.weights),
+    weights = r.weights if r.weights.any() else None
+    kinds = {"dual": ("dual", None), "weighted_dual": ("dual", weights),
              "primal": ("primal", None)}
     for key, (kind, w) in kinds.items():
-        if key == "weighted_dual" and not r.weights.any() and not nsd and "dual" in reports:
+        if key == "weighted_dual" and w is None and not nsd and "dual" in reports:
             reports[key] = reports["dual"]
         if key not in reports or (nsd and reports[key].get("nsd") is None):
-            reports[key] = check(assembly.laplacian(V, T, kind, weights=w), V, T,
-                                 nsd=nsd).to_dict()
+            L = assembly.laplacian(V, T, kind, weights=w, degenerate="skip")
+            reports[key] = check(L, V, T, nsd=nsd).to_dict()
     return {
         "regular": bool(r.regular),
         "status": r.status,
