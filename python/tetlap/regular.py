@@ -779,7 +779,7 @@ def _repair_masses(problem, V, T, u, l2, m_plain, mass_floor, floor_t, lo, hi, d
 def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str = "free",
                     mass_floor: float | None = 0.1, max_weight: float = 10.0,
                     rtol: float = REGULAR_RTOL, time_limit: float | None = None,
-                    max_iterations: int = 5000) -> RegularWeights:
+                    max_iterations: int = 20000) -> RegularWeights:
     """Vertex weights that make the mesh regular, so that its weighted dual has
     non-negative interior weights, or a proof that none do.
 
