@@ -661,6 +661,10 @@ def _search_floor(problem, floor_t, aim, u, lo, hi, timed_out, budget):
         active |= near
 
 
+#: Iterations of :func:`_decide` at a floor before it looks for a certificate and
+#: lowers the floor (the last floor gets what is left).
+_LEVEL_ITERATIONS = 2000
+
 #: The working set of :func:`_search_floor`: conditions within this margin of their aim.
 _ACTIVE = 0.05
 
@@ -683,6 +687,8 @@ def _decide(problem, violated, target, lo, hi, deadline, max_iterations, notes):
         floor_t, aim = _aims(problem, violated, floor)
         out.update(floor=floor, floor_t=floor_t)
         budget = (max_iterations - out["iterations"]) // (len(floors) - level)
+        if level < len(floors) - 1:        # a stuck search is better off certified early
+            budget = min(budget, _LEVEL_ITERATIONS)
         u, used, sub, index = _search_floor(problem, floor_t, aim, u, lo, hi, timed_out,
                                             max(budget, 1))
         out["iterations"] += used
@@ -828,7 +834,8 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
        ``min(plain margin / 2, target_margin)`` on the others. Boundary weights are
        kept ``>= 0`` first (boundary power cells then only grow, which keeps the boundary
        masses positive: 24 masses lost -> 0 on ``flipfree_fish_blub``); when that search
-       is undecided, it is run again with weights of either sign (same budget). It stops as soon as every face
+       is undecided (it gets half of ``max_iterations``), it is run again with weights
+       of either sign (the other half). It stops as soon as every face
        reaches its floor: *regular*, confirmed by the margin test (:data:`REGULAR_RTOL`).
        Starting from 0 keeps the weights local (zero away from the repairs) and small.
     3. *Certificate*: when the search converges short of the floors, the conditions still
@@ -911,9 +918,10 @@ def _search_weights(V, T, cond, on_boundary, violated0, m_plain, deadline, targe
     hi = np.where(allowed, float(max_weight), 0.0)
     problem = _Problem.of(cond, l2)
     iterations = 0
-    for lo in (np.where(on_boundary, 0.0, -hi), -hi):
+    for lo, budget in ((np.where(on_boundary, 0.0, -hi), max_iterations // 2),
+                       (-hi, max_iterations)):
         outcome = _decide(problem, violated0[problem.rows], target_margin, lo, hi, deadline,
-                          max_iterations - iterations, notes)
+                          budget - iterations, notes)
         iterations += outcome["iterations"]
         if (outcome["status"] != "undecided" or not (on_boundary & allowed).any()
                 or iterations >= max_iterations):
