@@ -6,7 +6,7 @@ import doctest
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import tetlap
@@ -86,7 +86,11 @@ def test_regular_triangulations_are_recognised(seed):
 @settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 10**6), scale=st.sampled_from([0.01, 0.05, 0.2]))
 def test_random_regular_triangulations(seed, scale):
-    V, T, _ = weighted_points(seed, n=80, scale=scale)
+    V, T, w_true = weighted_points(seed, n=80, scale=scale)
+    try:  # the hull of random points has slivers the core refuses even with w_true
+        tetlap.edge_weights(V, T, "dual", weights=w_true)
+    except tetlap.DegenerateElementError:
+        assume(False)
     r = regular_weights(V, T)
     assert r.regular and r.status == "regular"
     inner, s = interior_dual_weights(V, T, r.weights)

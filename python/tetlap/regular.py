@@ -852,6 +852,10 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
        rounds of 300 iterations, each kept when it lowers the total deficit, the faces kept at half their floors at
        least (``margin_floor`` reports the floor before that).
 
+    Near-flat tets (hull slivers) may be refused by the core's accuracy guard with the
+    weights found (``DegenerateElementError``: weights far larger than their squared
+    edges); pass ``degenerate="skip"`` to the operators then, as the counts here do.
+
     When the mesh is not regular (or undecided) the weights are the search's last ones
     (they minimise the sum of squared shortfalls, which spreads violations rather than
     minimising their number), or 0 if those violate more faces than ``w = 0``.
