@@ -68,6 +68,25 @@ def test_info_table_is_human_readable():
     assert "semidefinite (dual): skipped (nsd=False)" in out.stdout
 
 
+def test_info_regular_section_and_no_regular(monkeypatch, capsys):
+    V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)      # regular, not Delaunay
+    monkeypatch.setattr(cli, "_load", lambda mesh: (V, T, "test mesh"))
+
+    def info(*flags):
+        assert cli.main(["info", "--no-nsd", *flags]) == 0
+        return capsys.readouterr().out
+
+    out = info()
+    assert "regular (weighted Delaunay): yes" in out
+    assert "negative interior weights: dual" in out and "weighted dual 0," in out
+    assert "regular (weighted Delaunay)" not in info("--no-regular")
+    out = info("--regular-time", "1e-9")
+    assert "regular (weighted Delaunay): undecided" in out and "--regular-time" in out
+    result = json.loads(info("--json"))
+    assert result["regular"]["status"] == "regular"
+    assert result["regular"]["negative_interior_weights"]["weighted_dual"] == 0
+
+
 def test_info_table_of_a_file(cube_file, capsys):
     path, V, T = cube_file
     assert cli.main(["info", str(path)]) == 0
@@ -196,6 +215,8 @@ def test_the_parser_knows_the_defaults():
     assert (args.laplacian, args.mass, args.degenerate) == ("dual", "circumcentric", "raise")
     args = cli.parser().parse_args(["bench", "--threads", str(tetlap.MAX_THREADS)])
     assert args.threads == tetlap.MAX_THREADS and args.quick is False and args.repeat is None
+    args = cli.parser().parse_args(["info"])
+    assert (args.no_regular, args.regular_time) == (False, tetlap.info.REGULAR_TIME_LIMIT)
     args = cli.parser().parse_args(["experiment", "flips", "--quick", "--seed", "3"])
     assert (args.name, args.quick, args.seed, args.out) == ("flips", True, 3, None)
 

@@ -194,8 +194,15 @@ def assert_operator_report(V, T, kind, r, boundary):
 
 
 def assert_report(V, T, result):
-    assert set(result) == {"mesh", "primal", "dual"}
+    assert set(result) == {"mesh", "primal", "dual", "regular"}
     json.dumps(result)  # JSON-ready
+    reg = result["regular"]
+    if reg is not None and reg["status"] != "n/a":
+        # the section reuses the plain dual's and the primal's counts
+        for kind in ("dual", "primal"):
+            assert reg["negative_interior_weights"][kind] == result[kind]["n_negative_interior"]
+        if reg["status"] == "regular":
+            assert reg["negative_interior_weights"]["weighted_dual"] == 0
     assert_mesh_summary(V, T, result["mesh"])
     keys, _, counts, _, _ = face_table(T)
     boundary = np.zeros(len(V), dtype=bool)
@@ -265,6 +272,33 @@ def test_nsd_false_skips_the_certificates_only():
         for key in set(a[kind]) - {"nsd", "nsd_min_eigenvalue", "nsd_method"}:
             assert a[kind][key] == b[kind][key], key
     assert a["mesh"] == b["mesh"]
+
+
+def test_regular_section_compares_the_three_laplacians():
+    """A regular non-Delaunay ball: the weights found remove every negative interior
+    weight of the dual; the section's counts are those of tetlap.check."""
+    V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)
+    r = info.report(V, T, nsd=False, progress=False)["regular"]
+    assert r["status"] == "regular" and r["regular"] is True and r["margin"] > 0
+    n = r["negative_interior_weights"]
+    assert n["dual"] > 0 and n["weighted_dual"] == 0
+    assert n["primal"] == info.report(V, T, nsd=False, progress=False,
+                                      regular=False)["primal"]["n_negative_interior"]
+    w = tetlap.regular_weights(V, T).weights
+    L = tetlap.laplacian(V, T, "dual", weights=w)
+    assert tetlap.check(L, V, T, nsd=False).n_negative_interior == 0
+
+
+def test_regular_section_statuses_and_budget():
+    V, T = tetlap.meshes.ball(300, seed=3)                       # Delaunay
+    r = info.report(V, T, nsd=False, progress=False)["regular"]
+    assert r["status"] == "regular" and r["n_weighted_vertices"] == 0
+    V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)
+    r = info.report(V, T, nsd=False, progress=False, regular_time_limit=1e-9)["regular"]
+    assert r["status"] == "undecided" and r["regular"] is False
+    assert info.report(V, T, nsd=False, progress=False, regular=False)["regular"] is None
+    V4 = np.hstack([V, np.zeros((len(V), 1))])                  # immersed in R^4: n/a
+    assert info.report(V4, T, nsd=False, progress=False)["regular"]["status"] == "n/a"
 
 
 def test_progress_goes_to_stderr_only(capsys):

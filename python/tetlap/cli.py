@@ -2,7 +2,7 @@
 work is done by :mod:`tetlap.info`, :mod:`tetlap.assembly`, :mod:`tetlap.benchmark` and
 :mod:`tetlap.experiments`.
 
-    tetlap info [MESH] [--json]      the mesh and the Table 1 properties of both Laplacians
+    tetlap info [MESH] [--json]      the mesh, both Laplacians' Table 1 properties, regularity
     tetlap assemble MESH -o L.npz    L and M as scipy .npz files
     tetlap bench                     timings against the floor and the baselines
     tetlap experiment NAME           the paper's experiments (CSV + PNG + summary)
@@ -20,6 +20,7 @@ import sys
 
 from . import __version__, experiments
 from .errors import TetlapError
+from .info import REGULAR_TIME_LIMIT
 
 #: The built-in mesh of ``tetlap info`` without a file.
 BUILT_IN = "a random Delaunay ball, tetlap.meshes.ball(2000, seed=0)"
@@ -97,13 +98,38 @@ def _print_info(result: dict, source: str) -> None:
     print()
     for kind, r in (("primal", p), ("dual", d)):
         print(f"semidefinite ({kind}): {r['nsd_method']}")
+    if result.get("regular") is not None:
+        print()
+        _print_regular(result["regular"])
+
+
+def _print_regular(r: dict) -> None:
+    """The ``regular`` section of ``tetlap info``: the verdict and what the weights buy."""
+    if r["status"] == "n/a":
+        print(f"regular (weighted Delaunay): n/a ({r['reason']})")
+        return
+    verdict = {"regular": "yes", "not regular": "no (proved)",
+               "undecided": "undecided"}[r["status"]]
+    print(f"regular (weighted Delaunay): {verdict}; margin {r['margin']:+.3e} with the "
+          f"weights found ({r['n_weighted_vertices']} non-zero), {r['margin_plain']:+.3e} "
+          f"without; {r['seconds']:.2f} s")
+    n = r["negative_interior_weights"]
+    print(f"negative interior weights: dual {n['dual']}, weighted dual {n['weighted_dual']}, "
+          f"primal {n['primal']}")
+    if r["status"] == "not regular":
+        print(f"certificate: {r['certificate_faces']} faces that no weights make all "
+              "locally regular")
+    elif r["status"] == "undecided":
+        print(f"undecided: {r['notes'][0] if r['notes'] else 'budget exhausted'} "
+              "(raise --regular-time)")
 
 
 def _info(args) -> int:
     from . import info
 
     V, T, source = _load(args.mesh)
-    result = info.report(V, T, nsd=not args.no_nsd, progress=None if not args.json else False)
+    result = info.report(V, T, nsd=not args.no_nsd, progress=None if not args.json else False,
+                         regular=not args.no_regular, regular_time_limit=args.regular_time)
     if args.json:
         print(json.dumps({"source": source, **result}, indent=2))
     else:
@@ -209,6 +235,11 @@ def parser() -> argparse.ArgumentParser:
     info.add_argument("--json", action="store_true", help="print one JSON object (default: tables)")
     info.add_argument("--no-nsd", action="store_true",
                       help="skip the semidefiniteness certificates (default: computed)")
+    info.add_argument("--no-regular", action="store_true",
+                      help="skip the search for regular (weighted Delaunay) weights")
+    info.add_argument("--regular-time", type=float, default=REGULAR_TIME_LIMIT, metavar="S",
+                      help="seconds for that search; past it the verdict is 'undecided' "
+                           f"(default {REGULAR_TIME_LIMIT:g})")
     info.add_argument("--plot", metavar="DIR",
                       help="also write histograms of dihedral angles, weights and masses "
                            "(PNG) into DIR")

@@ -19,13 +19,19 @@ from . import _arrays, assembly, diagnostics
 from ._progress import Stages
 from .properties import NEGATIVE_TOL, _check
 
-__all__ = ["report", "plot", "PAIRS"]
+__all__ = ["report", "plot", "PAIRS", "REGULAR_TIME_LIMIT"]
 
 #: The operators of the report: (Laplacian kind, mass kind).
 PAIRS = (("primal", "barycentric"), ("dual", "circumcentric"))
 
 
-def report(V, T=None, *, nsd: bool = True, progress: bool | None = None) -> dict:
+#: Default seconds for the ``regular`` section (:func:`tetlap.regular.regular_weights`):
+#: past it the verdict is "undecided", so that ``tetlap info`` stays fast on big meshes.
+REGULAR_TIME_LIMIT = 10.0
+
+
+def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
+           regular: bool = True, regular_time_limit: float | None = REGULAR_TIME_LIMIT) -> dict:
     """The report of ``tetlap info`` as a JSON-ready dict.
 
     Parameters
@@ -38,13 +44,22 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None) -> dict
         False skips the semidefiniteness certificates.
     progress : bool, optional
         Report each step on stderr (default: when stderr is a terminal).
+    regular : bool, default True
+        Add the ``regular`` section: is the mesh regular (weighted Delaunay), and what the
+        weighted dual with the weights found gains (:func:`tetlap.regular.summary`).
+    regular_time_limit : float or None, default :data:`REGULAR_TIME_LIMIT` seconds
+        Budget of that search; past it its ``status`` is ``"undecided"``.
 
     Returns
     -------
     dict
-        ``{"mesh": diagnostics summary, "primal": Report dict, "dual": Report dict}``; each
-        Report dict includes its mass checks (``mass_min``, ``mass_nonpositive``,
-        ``mass_total``, ``mesh_volume``).
+        ``{"mesh": diagnostics summary, "primal": Report dict, "dual": Report dict,
+        "regular": dict or None}``; each Report dict includes its mass checks
+        (``mass_min``, ``mass_nonpositive``, ``mass_total``, ``mesh_volume``). ``regular``
+        is :func:`tetlap.regular.summary` (``status`` "regular", "not regular" or
+        "undecided", ``margin``, ``negative_interior_weights`` of the dual, the weighted
+        dual and the primal, ...), ``{"status": "n/a", "reason": ...}`` when it does not
+        apply (points not in R^3, flat tets), None with ``regular=False``.
     """
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
@@ -61,8 +76,27 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None) -> dict
         result[lap] = _check(L, V, T, M, kind=lap, negative_tol=NEGATIVE_TOL, nsd=nsd,
                              boundary=boundary, mesh_volume=result["mesh"]["mesh_volume"],
                              assembled=True).to_dict()
+    result["regular"] = None
+    if regular:
+        step("regular weights")
+        result["regular"] = _regular_section(V, T, result, regular_time_limit)
     step.done()
     return result
+
+
+def _regular_section(V, T, result, time_limit) -> dict:
+    """:func:`tetlap.regular.summary` with the plain dual's and the primal's reports
+    reused; ``{"status": "n/a", "reason": ...}`` where regularity is not defined."""
+    from .errors import TetlapError
+    from .regular import summary
+
+    if V.shape[1] != 3:
+        return {"status": "n/a", "reason": f"points in R^{V.shape[1]}, not R^3"}
+    try:
+        return summary(V, T, time_limit=time_limit,
+                       reports={"dual": result["dual"], "primal": result["primal"]})
+    except TetlapError as error:       # flat tets: no power centers
+        return {"status": "n/a", "reason": str(error).splitlines()[0]}
 
 
 def plot(V, T=None, folder=".") -> list:

@@ -7,7 +7,7 @@ the hyperplane through the lifted ``a, b, c, p``. Then its weighted dual
 (``tetlap.laplacian(V, T, "dual", weights=w)``, the power diagram) is an orthogonal dual
 whose interior edge weights are all non-negative: with linear precision (which every
 weighted dual has) that is a Laplacian with the maximum principle, as the plain dual is on
-Delaunay meshes. :func:`regular_weights` finds such weights, or says that none exist.
+Delaunay meshes. :func:`regular_weights` finds such weights, or proves that none exist.
 
 Conventions
 -----------
@@ -29,13 +29,21 @@ face margin
     ``w``: five weights enter it. A *folded* face (both tets on the same side of it, as
     around an inverted tet) gets the smaller of the two tets' conditions, which are of
     opposite signs: its margin is ``<= 0`` for every ``w``.
+regular, strictly
+    Every interior face's margin is linear in ``w`` and vanishes for ``w = |x|^2`` (a flat
+    lifting: all power centers coincide, the weighted dual is the zero matrix), so "every
+    margin >= 0" is always possible and says nothing. *Regular* means: some ``w`` makes
+    every margin strictly positive; then ``|x|^2 + t (w - |x|^2)`` makes them as large as
+    wanted. By Gordan's theorem of the alternative, a mesh is **not** regular exactly when
+    some non-negative combination ``y`` of the face conditions vanishes identically in
+    ``w``: that ``y`` is the certificate :func:`regular_weights` looks for.
 
 >>> import tetlap
 >>> from tetlap.regular import regular_weights
 >>> V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)   # a non-Delaunay mesh
 >>> r = regular_weights(V, T)
->>> bool(r.regular), r.margin > 0, r.n_violated_plain > 0
-(True, True, True)
+>>> r.status, r.margin > 0, r.n_violated_plain > 0
+('regular', True, True)
 >>> r.n_negative_interior_plain > 0, r.n_negative_interior_weighted
 (True, 0)
 """
@@ -48,8 +56,9 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from . import _arrays, assembly
-from .diagnostics import boundary_vertices, interior_faces
+from . import _arrays, _core, assembly
+from ._interrupt import interruptible
+from .diagnostics import _FACES, _face_sets, mesh_edges
 from .errors import OptionError, TetlapError
 from .properties import NEGATIVE_TOL
 
@@ -59,6 +68,7 @@ __all__ = [
     "face_margins",
     "summary",
     "REGULAR_RTOL",
+    "STATUSES",
 ]
 
 #: Round-off tolerance of the regularity test, relative like
@@ -69,21 +79,50 @@ __all__ = [
 REGULAR_RTOL = 1e-10
 
 #: Margin the weights aim for on the faces they have to repair (default of
-#: ``target_margin``): 1% of the face size. Small on purpose: the larger the target, the
-#: larger the weights, and large weights shrink the power cells of boundary vertices.
-TARGET_MARGIN = 0.01
+#: ``target_margin``): 0.1% of the face size. Small on purpose: the larger the target, the
+#: larger the weights (large weights shrink the power cells of boundary vertices), and
+#: the slower the search (10 iterations at 1e-3, thousands at 1e-2 on a weighted ball).
+TARGET_MARGIN = 1e-3
 
-# HiGHS feasibility tolerance for our LPs (its default is 1e-7): margins are O(1).
-_LP_TOL = 1e-9
+#: The values of :attr:`RegularWeights.status`: ``"regular"`` (the weights returned make
+#: every interior face locally regular: verified by the margin test), ``"not regular"``
+#: (proved: a certificate, see :attr:`RegularWeights.certificate_faces`) and
+#: ``"undecided"`` (the search stopped at ``time_limit`` or ``max_iterations`` with
+#: neither).
+STATUSES = ("regular", "not regular", "undecided")
 
 
 # --------------------------------------------------------------------------------------
 # The linear conditions
 # --------------------------------------------------------------------------------------
 
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _lifted(Vt, R, q):
+    """Cofactors ``C`` (4, c) of the lifted column of ``det[x_i - x_q, |x_i - x_q|^2]``
+    (rows: the corners ``R`` (c, 4) of a tet) and the squared lengths ``s`` (4, c).
+    Coordinates as (3, n) rows: every product below is one NumPy pass over c values."""
+    Xq = Vt[:, q]
+    e = [Vt[:, R[:, i]] - Xq for i in range(4)]
+    s = np.stack([_dot(x, x) for x in e])
+    x23, x01 = _cross(e[2], e[3]), _cross(e[0], e[1])
+    C = np.stack([-_dot(e[1], x23), _dot(e[0], x23), -_dot(e[3], x01), _dot(e[2], x01)])
+    return C, s
+
+
 @dataclasses.dataclass
 class _Conditions:
-    """Every local regularity condition as ``g(w) = g0 + sum_k G[:, k] * w[idx[:, k]]``."""
+    """Every local regularity condition as ``g(w) = g0 + sum_k G[:, k] * w[idx[:, k]]``.
+
+    Condition ``f < n_faces`` is interior face ``f`` seen from its first tet; a folded
+    face has a second condition (from its second tet) after those, ``face`` says whose.
+    """
 
     idx: np.ndarray      # (c, 5) the tet's 4 vertices in T order, then the opposite one
     g0: np.ndarray       # (c,) margin at w = 0
@@ -95,68 +134,63 @@ class _Conditions:
     folded: np.ndarray   # (f,) bool
 
     def margins(self, w: np.ndarray) -> np.ndarray:
-        return self.g0 + (self.G * w[self.idx]).sum(axis=1)
+        return self.g0 + np.einsum("ck,ck->c", self.G, w[self.idx])
 
     def tolerance(self, w: np.ndarray, rtol: float) -> np.ndarray:
         return rtol * (self.bound0 + np.abs(self.G * w[self.idx]).sum(axis=1))
 
     def per_face(self, values: np.ndarray) -> np.ndarray:
-        out = np.full(self.n_faces, np.inf)
-        np.minimum.at(out, self.face, values)
+        out = values[:self.n_faces].copy()
+        np.minimum.at(out, self.face[self.n_faces:], values[self.n_faces:])
         return out
 
 
-def _condition(V, T, tet, q, norm):
-    """Condition "lifted q above the lifted plane of tet" as coefficients, see _Conditions.
-
-    ``D = det[x_i - x_q, |x_i - x_q|^2 - w_i + w_q]`` (rows: the tet's corners in T
-    order) is, times the tet's orientation sign, ``4 A h_p h_q`` times the signed length of
-    the dual edge; ``norm`` (``4 A h_p h_q l``) makes it the margin.
-    """
-    R = T[tet]
-    E = V[R] - V[q][:, None, :]                        # (c, 4, 3), relative to q
-    sq = np.einsum("cid,cid->ci", E, E)
-    C = np.empty((len(q), 4))                          # cofactors of the lifted column
-    for i in range(4):
-        M = E[:, [k for k in range(4) if k != i]]
-        C[:, i] = (-1) ** (i + 1) * np.einsum("cd,cd->c", M[:, 0], np.cross(M[:, 1], M[:, 2]))
-    e = E[:, 1:] - E[:, :1]
-    orient = np.sign(np.einsum("cd,cd->c", e[:, 0], np.cross(e[:, 1], e[:, 2])))
+def _condition_terms(Vt, R, q, norm, orient):
+    C, s = _lifted(Vt, R, q)
     scale = orient / norm
-    g0 = (C * sq).sum(axis=1) * scale
-    G = np.concatenate([-C, C.sum(axis=1, keepdims=True)], axis=1) * scale[:, None]
-    bound0 = (np.abs(C) * sq).sum(axis=1) / norm
-    return np.concatenate([R, q[:, None]], axis=1), g0, G, bound0
+    g0 = (C * s).sum(axis=0) * scale
+    G = np.vstack([-C, C.sum(axis=0)[None]]) * scale
+    bound0 = (np.abs(C) * s).sum(axis=0) / norm
+    return np.column_stack([R, q]), g0, np.ascontiguousarray(G.T), bound0
 
 
-def _conditions(V, T) -> _Conditions:
-    tets, opposite = interior_faces(T)
-    R = T[tets[:, 0]]
-    on_face = R != opposite[:, :1]
-    tri = R[on_face].reshape(-1, 3)
-    F = V[tri]
-    n = np.cross(F[:, 1] - F[:, 0], F[:, 2] - F[:, 0])
-    area2 = np.linalg.norm(n, axis=1)
+def _conditions(V, T, interior) -> _Conditions:
+    """The conditions of every interior face (``interior``: the core's face table, rows
+    ``(tet, corner, tet, corner)``), vectorised: O(faces) NumPy passes, no Python loop."""
+    Vt = np.ascontiguousarray(V.T)
+    t1, c1, t2, c2 = interior.T
+    R = T[t1]
+    p, q = T[t1, c1], T[t2, c2]
+    tri = T[t1[:, None], _FACES[c1]]
+    F = [Vt[:, tri[:, k]] for k in range(3)]
+    nrm = _cross(F[1] - F[0], F[2] - F[0])
+    area2 = np.sqrt(_dot(nrm, nrm))
     with np.errstate(invalid="ignore", divide="ignore"):
-        unit = n / area2[:, None]
-    sp_ = np.einsum("fd,fd->f", V[opposite[:, 0]] - F[:, 0], unit)
-    sq_ = np.einsum("fd,fd->f", V[opposite[:, 1]] - F[:, 0], unit)
-    rms = np.sqrt(((F - np.roll(F, 1, axis=1)) ** 2).sum(axis=2).mean(axis=1))
-    norm = 2 * area2 * np.abs(sp_) * np.abs(sq_) * rms   # 4 A h_p h_q l
+        hp = _dot(Vt[:, p] - F[0], nrm) / area2
+        hq = _dot(Vt[:, q] - F[0], nrm) / area2
+    d01, d12, d20 = F[1] - F[0], F[2] - F[1], F[0] - F[2]
+    rms = np.sqrt((_dot(d01, d01) + _dot(d12, d12) + _dot(d20, d20)) / 3)
+    norm = 2 * area2 * np.abs(hp) * np.abs(hq) * rms   # 4 A h_p h_q l
     bad = ~(norm > 0) | ~np.isfinite(norm)
     if bad.any():
         f = int(np.flatnonzero(bad)[0])
         raise TetlapError(
-            f"interior face {tri[f].tolist()} (tets {tets[f].tolist()}) has a flat tet on "
-            "one side: regularity needs tets of non-zero volume",
-            element=int(tets[f, 0]))
-    folded = sp_ * sq_ > 0
-    nf = len(tets)
-    idx, g0, G, b0 = _condition(V, T, tets[:, 0], opposite[:, 1], norm)
+            f"interior face {tri[f].tolist()} (tets {[int(t1[f]), int(t2[f])]}) has a flat "
+            "tet on one side: regularity needs tets of non-zero volume", element=int(t1[f]))
+    folded = hp * hq > 0
+    # orientation of the first tet: the side of its face that p is on, relative to the
+    # face's own normal, and whether its corners in T order make that normal outward
+    e = [Vt[:, R[:, i]] - Vt[:, R[:, 0]] for i in (1, 2, 3)]
+    orient = np.sign(_dot(e[0], _cross(e[1], e[2])))
+    nf = len(interior)
+    idx, g0, G, b0 = _condition_terms(Vt, R, q, norm, orient)
     face = np.arange(nf)
     fo = np.flatnonzero(folded)
     if len(fo):  # the second tet's view, of opposite sign for a folded face
-        idx2, g2, G2, b2 = _condition(V, T, tets[fo, 1], opposite[fo, 0], norm[fo])
+        R2 = T[t2[fo]]
+        e = [Vt[:, R2[:, i]] - Vt[:, R2[:, 0]] for i in (1, 2, 3)]
+        o2 = np.sign(_dot(e[0], _cross(e[1], e[2])))
+        idx2, g2, G2, b2 = _condition_terms(Vt, R2, p[fo], norm[fo], o2)
         idx, g0, G, b0 = (np.concatenate([a, b]) for a, b in
                           ((idx, idx2), (g0, g2), (G, G2), (b0, b2)))
         face = np.concatenate([face, fo])
@@ -172,6 +206,14 @@ def _validated(V, T):
     # the core validates indices, finiteness, repeated corners and flat tets, naming them
     assembly.tet_contributions(V, T, "primal")
     return V, T
+
+
+def _mesh_faces(V, T):
+    """(on_boundary (n,) bool, the core's interior face table)."""
+    T, (boundary, interior, _) = _face_sets(T, len(V))
+    on_boundary = np.zeros(len(V), dtype=bool)
+    on_boundary[T[boundary[:, 0][:, None], _FACES[boundary[:, 1]]].ravel()] = True
+    return on_boundary, interior
 
 
 def face_margins(V, T, weights=None) -> np.ndarray:
@@ -197,7 +239,7 @@ def face_margins(V, T, weights=None) -> np.ndarray:
     """
     V, T = _validated(V, T)
     w = _arrays.vertex_weights(weights, len(V))
-    cond = _conditions(V, T)
+    cond = _conditions(V, T, _mesh_faces(V, T)[1])
     return cond.per_face(cond.margins(np.zeros(len(V)) if w is None else w))
 
 
@@ -291,7 +333,7 @@ class RegularWeights:
         is Delaunay. Pass them on: ``tetlap.laplacian(V, T, "dual", weights=r.weights)``.
     regular : bool, every interior face locally regular for ``weights`` up to
         :data:`REGULAR_RTOL` (then every interior weighted-dual weight is >= 0) and no face
-        folded.
+        folded. Always ``status == "regular"``.
     margin : float, the smallest face margin (scale-free; module docstring). ``> 0``
         means every interior face is strictly locally regular; a regular mesh has
         ``margin <= 0`` only at rounding level, for cospherical faces (Kuhn grids). 0.0
@@ -304,9 +346,9 @@ class RegularWeights:
     n_violated_plain : int, interior faces violated at ``w = 0`` (non-Delaunay faces).
     n_folded : int, folded interior faces (no weights can repair them).
     target_margin : float, the margin aimed for on repaired faces.
-    margin_floor : float or None, the margin the LP imposed on the repaired faces: the
-        target, or a tenth or a hundredth of it when the target is out of reach; None when
-        nothing was repaired (Delaunay) or the mesh is not regular.
+    margin_floor : float or None, the margin the search guaranteed on the repaired faces
+        (the target, or a tenth or a hundredth of it when the target was not reached in
+        time); None when nothing was repaired (Delaunay) or the mesh is not regular.
     n_weighted_vertices : int, vertices with a non-zero weight.
     n_negative_interior_plain, n_negative_interior_weighted : int, negative weights (below
         ``-NEGATIVE_TOL * max|w|``, as :func:`tetlap.check` counts them) on edges whose
@@ -316,9 +358,27 @@ class RegularWeights:
         whose weighted one is not (target: none).
     masses_below_floor : (k,) int64, vertices whose weighted mass fell below
         ``mass_floor`` times their positive plain mass (``masses_lost`` included).
-    lp_rounds : int, LPs solved.  lp_max_size : (rows, columns) of the largest LP.
     seconds : float, wall time.
-    notes : list of str, what happened (phases, relaxations).
+    notes : list of str, what happened (phases, relaxations, why undecided).
+    status : str, one of :data:`STATUSES`: ``"regular"``; ``"not regular"``, *proved*:
+        ``certificate_faces`` is a set of interior faces that no weights make all strictly
+        locally regular (non-negative multipliers ``y`` on their conditions whose
+        combination vanishes for every ``w``, to rounding: ``sum_f y_f margin_f(w) = 0``,
+        so one of them has a margin ``<= 0`` whatever ``w``; or folded faces); or
+        ``"undecided"``: stopped at ``time_limit`` or ``max_iterations``, the weights are
+        the best found (never more violated faces than ``w = 0``).
+    certificate_faces : (k, 3) int64, the faces of the proof when the status is
+        ``"not regular"`` (the folded faces when there are any, else the support of the
+        multipliers); empty otherwise.
+    certificate_multipliers : (k,) float64 >= 0, the Gordan multipliers ``y`` of
+        ``certificate_faces``: ``sum_f y_f margin_f(w)`` is the same (0) for every ``w``,
+        so some face of the certificate has margin ``<= 0`` whatever the weights. Check it
+        with :func:`face_margins` at any two weights. Ones for folded faces.
+    certificate_residual : float or None, ``|sum_f y_f grad_w margin_f|_1`` relative to
+        ``sum_f y_f |grad_w margin_f|_1`` (rounding level, ~1e-14; a certificate is only
+        accepted below 1e-8); 0.0 for folded faces; None without a certificate.
+    iterations : int, iterations of the first-order search (L-BFGS-B).
+    lp_count : int, certificate LPs solved (0 on regular meshes, as a rule).
     """
 
     weights: np.ndarray
@@ -338,17 +398,23 @@ class RegularWeights:
     mass_min_weighted: float
     masses_lost: np.ndarray
     masses_below_floor: np.ndarray
-    lp_rounds: int
-    lp_max_size: tuple[int, int]
     seconds: float
     notes: list[str] = dataclasses.field(default_factory=list)
+    status: str = "undecided"
+    certificate_faces: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
+    certificate_multipliers: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(0))
+    certificate_residual: float | None = None
+    iterations: int = 0
+    lp_count: int = 0
 
     def to_dict(self) -> dict:
         """A JSON-ready dict of the scalar fields and counts (arrays summarised)."""
         out = {}
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
-            if f.name in ("weights", "face_margins"):
+            if f.name in ("weights", "face_margins", "certificate_multipliers"):
                 continue
             if isinstance(v, np.ndarray):
                 out[f"n_{f.name}"] = int(len(v))
@@ -359,8 +425,10 @@ class RegularWeights:
         return out
 
     def __str__(self) -> str:
+        verdict = {"regular": "yes", "not regular": "NO (proved)",
+                   "undecided": "undecided"}[self.status]
         lines = [
-            f"regular: {'yes' if self.regular else 'NO'} (margin {self.margin:.3e}; "
+            f"regular: {verdict} (margin {self.margin:.3e}; "
             f"plain dual {self.margin_plain:.3e}, {self.n_violated_plain} non-Delaunay faces)",
             f"weights: {self.n_weighted_vertices} non-zero; negative interior weights "
             f"{self.n_negative_interior_plain} (plain dual) -> "
@@ -372,6 +440,9 @@ class RegularWeights:
         if len(self.violated_faces):
             lines.append(f"violated faces: {len(self.violated_faces)} "
                          f"({self.n_folded} folded)")
+        if len(self.certificate_faces):
+            lines.append(f"certificate: {len(self.certificate_faces)} faces that no weights "
+                         "make all locally regular")
         return "\n".join(lines + [f"note: {n}" for n in self.notes])
 
 
@@ -382,209 +453,414 @@ class RegularWeights:
 def _vertex_lengths(V, T) -> np.ndarray:
     """Mean length of the edges at every vertex (1 for unreferenced vertices)."""
     n = len(V)
-    E = np.sort(T[:, [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]]].reshape(-1, 2), axis=1)
-    key = np.unique(E[:, 0] * n + E[:, 1])          # n^2 < 2^63 for any float64 mesh
-    E = np.column_stack([key // n, key % n])
-    length = np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
+    E = mesh_edges(T)
+    d = V[E[:, 0]] - V[E[:, 1]]
+    length = np.sqrt(np.einsum("ed,ed->e", d, d))
     total = np.bincount(E.ravel(), np.repeat(length, 2), minlength=n)
     count = np.bincount(E.ravel(), minlength=n)
     return np.where(count > 0, total / np.maximum(count, 1), 1.0)
 
 
-def _negative_interior(V, T, w, on_boundary) -> int:
-    edges, weights = assembly.edge_weights(V, T, "dual", weights=w)
-    inner = ~(on_boundary[edges[:, 0]] & on_boundary[edges[:, 1]])
-    scale = float(np.abs(weights).max()) if len(weights) else 1.0
-    return int(((weights < -NEGATIVE_TOL * scale) & inner).sum())
+def _dual(V, T, w, on_boundary):
+    """The (weighted) dual's negative interior weights, as :func:`tetlap.check` counts
+    them, and its circumcentric masses; one assembly and one pass of the core's checks.
+    Tets the core refuses with these weights (weights far larger than their squared
+    edges: its accuracy guard) are skipped in the counts."""
+    L, M = assembly.operators(V, T, "dual", "circumcentric", weights=w,
+                              degenerate="raise" if w is None else "skip")
+    c = _core.check_operator(V, T, L.data, L.indices.astype(np.int64),
+                             L.indptr.astype(np.int64), on_boundary, NEGATIVE_TOL)
+    return int(c["n_negative_inner"]), M.diagonal(), c["linear_precision"]
 
 
-def _masses(V, T, w) -> np.ndarray:
-    return assembly.mass(V, T, "circumcentric", weights=w).diagonal()
+def _inner(a, b) -> float:
+    # einsum, not a @ b: no BLAS call, so no OpenBLAS threads spinning on a busy machine
+    return float(np.einsum("i,i->", a, b))
 
 
 class _Problem:
-    """The LPs over a growing set of variable vertices and active conditions.
+    """The conditions of the non-folded faces as ``g(u) = g0 + A u`` in ``u = w / l^2``
+    (``l``: a vertex's mean edge length, so that unknowns and coefficients are O(1)).
 
-    Unknowns: ``u = w / l^2`` per variable vertex (l: the vertex's mean edge length, so
-    that every unknown and every coefficient is O(1)), split ``u = p - n`` with
-    ``0 <= p, n <= max_weight`` so that ``sum |u|`` is linear.
+    A : (c, n) csr_array, 5 entries a row.  g0 : (c,) margins at ``w = 0``.
+    wgt : (c,) ``1 / |A_c|^2``: ``sqrt(wgt) * (aim - g)`` is the distance of ``u`` to
+    the half-space ``g_c >= aim``.  norm1 : (c,) ``|A_c|_1`` (for certificate residuals).
     """
 
-    def __init__(self, cond: _Conditions, l2: np.ndarray, allowed: np.ndarray,
-                 max_weight: float, deadline: float | None):
-        self.cond, self.l2, self.allowed, self.U = cond, l2, allowed, max_weight
-        self.deadline = deadline
-        n = len(l2)
-        c = len(cond.g0)
-        self.Gs = cond.G * l2[cond.idx]                # coefficients on u
-        # vertex -> conditions incidence, to find the conditions a vertex set touches
-        self.incidence = sp.csr_array(
-            (np.ones(cond.idx.size), (cond.idx.ravel(), np.repeat(np.arange(c), 5))),
-            shape=(n, c))
-        self.usable = ~cond.folded[cond.face]
-        self.rounds = 0
-        self.max_size = (0, 0)
+    def __init__(self, idx: np.ndarray, Gs: np.ndarray, g0: np.ndarray, rows: np.ndarray,
+                 n: int):
+        c = len(rows)
+        self.idx, self.Gs, self.g0, self.rows, self.n = idx, Gs, g0, rows, n
+        self.A = sp.csr_array((Gs.ravel(), idx.ravel(), np.arange(0, 5 * c + 1, 5)),
+                              shape=(c, n))
+        self.At = self.A.T.tocsr()
+        self.norm1 = np.abs(Gs).sum(axis=1)
+        self.wgt = 1.0 / (Gs * Gs).sum(axis=1)
 
-    def touched(self, S: np.ndarray) -> np.ndarray:
-        """Conditions with a vertex in S (folded faces' never: no weights repair them)."""
-        return ((self.incidence.T @ S.astype(np.float64)) > 0) & self.usable
+    @classmethod
+    def of(cls, cond: _Conditions, l2: np.ndarray) -> "_Problem":
+        """The conditions of ``cond`` on non-folded faces, ``rows``: their positions."""
+        rows = np.flatnonzero(~cond.folded[cond.face])
+        idx = cond.idx[rows]
+        return cls(idx, cond.G[rows] * l2[idx], cond.g0[rows], rows, len(l2))
 
-    def solve(self, S, active, *, margin_floor=None, hinge_target=None, hinge_cost=None,
-              mass_rows=None, weight_cost=1.0):
-        """One LP over the variable vertices S and the active conditions; the weights of
-        all other vertices stay 0. Returns (HiGHS status, u (n,) or None, t or None).
+    def subset(self, sel: np.ndarray) -> "_Problem":
+        """The conditions ``sel`` (indices into this problem) as a problem of their own."""
+        return _Problem(self.idx[sel], self.Gs[sel], self.g0[sel], self.rows[sel], self.n)
 
-        margin_floor : margin >= floor on the active conditions (hard); a scalar or one
-            value per condition.
-        hinge_target : minimise sum c max(0, target - margin) + weight_cost * sum |u|,
-            ``c = hinge_cost`` (per active condition; default 1); margin_floor None: no
-            hard floor.
-        mass_rows : (J (r, n) in w units, rhs (r,), scale (r,) > 0): soft rows
-            ``J w >= rhs`` with slack cost 100 per unit of ``slack / scale``.
-        Otherwise: minimise sum |u| (the minimum-weight LP).
-        """
+    def margins(self, u: np.ndarray) -> np.ndarray:
+        return self.g0 + self.A @ u
+
+    def shortfall(self, u, aim):
+        """``F(u) = 1/2 sum_c wgt_c max(0, aim_c - g_c(u))^2`` and its gradient (n,)."""
+        r = np.maximum(0.0, aim - self.margins(u))
+        wr = self.wgt * r
+        return 0.5 * _inner(r, wr), -(self.At @ wr)
+
+    def shortfall_rows(self, u, aim) -> np.ndarray:
+        """The conditions short of their aim at ``u``, largest shortfall first."""
+        d = np.sqrt(self.wgt) * (aim - self.margins(u))
+        short = np.flatnonzero(d > 1e-12)
+        return short[np.argsort(-d[short], kind="stable")]
+
+    def ring(self, rows: np.ndarray) -> np.ndarray:
+        """``rows`` plus every condition sharing a vertex with one of them (sorted)."""
+        cols = np.unique(self.A.indices[(self.A.indptr[rows][:, None]
+                                         + np.arange(5)).ravel()])
+        return np.unique(self.At[cols].indices)
+
+    def certificate(self, rows: np.ndarray, time_limit: float):
+        """Gordan's alternative on the conditions ``rows`` by an LP (HiGHS): maximise
+        ``sum y`` subject to ``A[rows]^T y = 0``, ``g0[rows] . y <= 0``, ``0 <= y <= 1``.
+        Every weight entering those rows is free, so a solution with ``y != 0`` proves that
+        no ``w`` makes them all strictly positive. Returns ``y`` (len(rows),) or None;
+        ``y`` is accepted only when its residual (:meth:`residual`) is below 1e-8."""
         from scipy.optimize import linprog
 
-        cond = self.cond
-        sv = np.flatnonzero(S)
-        k = len(sv)
-        col = np.full(len(S), -1)
-        col[sv] = np.arange(k)
-        ca = np.flatnonzero(active)
-        cs = col[cond.idx[ca]]
-        var = cs >= 0
-        na = len(ca)
-        Aw = sp.csr_array((self.Gs[ca][var], (np.repeat(np.arange(na), 5)[var.ravel()],
-                                              cs[var])), shape=(na, k))  # margin - g0
-        g0 = cond.g0[ca]
-        if margin_floor is not None and np.ndim(margin_floor):
-            margin_floor = np.asarray(margin_floor)[ca]
-        # columns: p (k), n (k), then hinge slacks (na), then mass slacks (r). (No
-        # max-margin LP "margin >= t": its t column is dense, which makes HiGHS's interior
-        # point minutes slow at 60k rows.)
-        cost = [np.full(2 * k, weight_cost)]
-        bounds = [(0.0, self.U)] * (2 * k)
-        if hinge_target is not None:              # target - s - (g0 + Aw u) <= 0
-            cost.append(np.ones(na) if hinge_cost is None else hinge_cost)
-            bounds += [(0.0, None)] * na
-            eye = sp.eye_array(na, format="csr")
-            A_ub = sp.hstack([-Aw, Aw, -eye], format="csr")
-            b_ub = [g0 - hinge_target]
-            if margin_floor is not None:
-                A_ub = sp.vstack([A_ub, sp.hstack([-Aw, Aw, sp.csr_array((na, na))])],
-                                 format="csr")
-                b_ub.append(g0 - margin_floor)
-        else:                                       # floor - (g0 + Aw u) <= 0
-            A_ub = sp.hstack([-Aw, Aw], format="csr")
-            b_ub = [g0 - margin_floor]
-        if mass_rows is not None:                   # rhs - J w - scale sigma <= 0
-            J, rhs, scale = mass_rows
-            Ju = sp.csr_array(sp.diags_array(1 / scale) @ J[:, sv] @ sp.diags_array(self.l2[sv]))
-            r = J.shape[0]
-            extra = A_ub.shape[1] - 2 * k
-            A_ub = sp.vstack([sp.hstack([A_ub, sp.csr_array((A_ub.shape[0], r))]),
-                              sp.hstack([-Ju, Ju, sp.csr_array((r, extra)),
-                                         -sp.eye_array(r, format="csr")])], format="csr")
-            b_ub.append(-rhs / scale)
-            cost.append(np.full(r, 100.0))
-            bounds += [(0.0, None)] * r
-        c = np.concatenate([np.asarray(x, dtype=np.float64) for x in cost])
-        self.rounds += 1
-        self.max_size = max(self.max_size, A_ub.shape)
-        # dual simplex for the minimum-weight LP (sparse, exact vertex solutions, fast
-        # there); interior point (with crossover) for the hinge LPs
-        methods = ("highs-ds", "highs-ipm") if hinge_target is None else (
-            "highs-ipm", "highs-ds")
-        for method in methods:     # the other method when one reports numerical trouble
-            options = {"primal_feasibility_tolerance": _LP_TOL,
-                       "dual_feasibility_tolerance": _LP_TOL}
-            if self.deadline is not None:
-                options["time_limit"] = max(self.deadline - time.perf_counter(), 0.01)
-            res = linprog(c, A_ub=A_ub, b_ub=np.concatenate(b_ub), bounds=bounds,
-                          method=method, options=options)
-            if res.status != 4:
-                break
-        if res.status != 0:
-            return res.status, None, None
-        u = np.zeros(len(S))
-        u[sv] = res.x[:k] - res.x[k:2 * k]
-        return 0, u, None
+        Ar = self.A[rows]
+        cols, inverse = np.unique(Ar.indices, return_inverse=True)
+        M = sp.csr_array((Ar.data, inverse.ravel(), Ar.indptr), shape=(len(rows), len(cols)))
+        options = {"time_limit": max(time_limit, 0.01), "primal_feasibility_tolerance": 1e-10,
+                   "dual_feasibility_tolerance": 1e-10}
+        res = interruptible(linprog, -np.ones(len(rows)), A_ub=self.g0[rows][None, :],
+                            b_ub=[0.0], A_eq=M.T.tocsr(), b_eq=np.zeros(len(cols)),
+                            bounds=(0.0, 1.0), method="highs", options=options)
+        if res.status != 0 or not -res.fun > 0.5:
+            return None
+        y = np.where(res.x > 1e-9, res.x, 0.0)
+        return y if self.residual(rows, y) <= _CERT_RTOL else None
+
+    def residual(self, rows, y) -> float:
+        """``|A[rows]^T y|_1 / sum_c y_c |A_c|_1``: 0 for an exact certificate."""
+        z = np.zeros(self.A.shape[0])
+        z[rows] = y
+        return float(np.abs(self.At @ z).sum() / _inner(self.norm1[rows], y))
+
+
+#: A multiplier vector ``y >= 0`` counts as a certificate of non-regularity when its
+#: combination of the face conditions vanishes to this relative residual
+#: (:meth:`_Problem.residual`); HiGHS's solutions have ~1e-14.
+_CERT_RTOL = 1e-8
+#: Certificate LPs are tried on the conditions still short of their aim, then on one ring
+#: more, when they are at most this many; else around the worst few (:data:`_CERT_SEEDS`).
+_CERT_MAX_ROWS = 20000
+_CERT_SEEDS = 3
+
+
+def _minimise(fun, u0, lo, hi, stop, max_iterations: int):
+    """L-BFGS-B (SciPy) on ``fun(u) -> (f, grad)`` within ``lo <= u <= hi`` from ``u0``,
+    stopping early when ``stop(u)`` holds after an iteration, or when ``f`` fell by less
+    than :data:`_STALL_DROP` over the last :data:`_STALL_WINDOW` iterations (a slow tail:
+    the caller then looks for a certificate or relaxes). Returns (u, iterations)."""
+    from scipy.optimize import Bounds, minimize
+
+    history: list[float] = []
+
+    def callback(intermediate_result):
+        history.append(float(intermediate_result.fun))
+        old = history[-_STALL_WINDOW - 1] if len(history) > _STALL_WINDOW else np.inf
+        if stop(intermediate_result.x) or history[-1] > (1 - _STALL_DROP) * old:
+            raise StopIteration
+
+    res = minimize(fun, u0, jac=True, method="L-BFGS-B", bounds=Bounds(lo, hi),
+                   callback=callback,
+                   options={"maxiter": max(int(max_iterations), 1), "maxcor": 10,
+                            "ftol": 1e-14, "gtol": 1e-12, "maxfun": 4 * max_iterations + 20})
+    return res.x, len(history)
+
+
+#: Stall test of :func:`_minimise`: the objective fell by less than this fraction...
+_STALL_DROP = 0.01
+#: ... over this many iterations.
+_STALL_WINDOW = 100
+
+
+def _aims(problem, violated, floor):
+    """The floors every condition must reach for a margin ``floor`` (the violated faces:
+    ``floor``; the others: half their plain margin if that is smaller) and the aims of the
+    search, ``0.1 * floor`` above them so that the floors are reached in finitely many
+    steps."""
+    floor_t = np.where(violated, floor, np.minimum(floor, problem.g0 / 2))
+    return floor_t, floor_t + 0.1 * floor
+
+
+def _certificate_near(problem, u, aim, deadline):
+    """Look for a certificate where the search is stuck. At a minimum of the shortfall,
+    ``y = wgt * shortfall`` satisfies ``A^T y = 0`` up to the bounds, so the conditions
+    short of their aim hold an obstruction when there is one. LPs on one ring around each
+    of the 20 largest shortfalls, on 2 and 3 rings around the :data:`_CERT_SEEDS` largest
+    first (non-regular meshes have
+    small obstructions: 4-200 faces on the corpus and on jittered balls), then on all
+    the short conditions and one ring more when they are few (:data:`_CERT_MAX_ROWS`).
+    Returns ((rows, y) or None, LPs solved)."""
+    short = problem.shortfall_rows(u, aim)
+    candidates = [problem.ring(short[k:k + 1]) for k in range(min(len(short), 20))]
+    for seed in short[:_CERT_SEEDS]:
+        rows = problem.ring(np.array([seed]))
+        for _ in range(2):
+            rows = problem.ring(rows)
+            candidates.append(rows)
+    candidates += [short, problem.ring(short)] if len(short) <= _CERT_MAX_ROWS else []
+    solved = 0
+    for rows in candidates:
+        left = np.inf if deadline is None else deadline - time.perf_counter()
+        if left <= 0:
+            break
+        if not len(rows) or len(rows) > _CERT_MAX_ROWS:
+            continue
+        y = problem.certificate(rows, min(left, 600.0))
+        solved += 1
+        if y is not None:
+            keep = y > 0
+            return (rows[keep], y[keep]), solved
+    return None, solved
+
+
+def _search_floor(problem, floor_t, aim, u, lo, hi, timed_out, budget):
+    """L-BFGS-B on the squared shortfall, on a working set: the conditions within
+    :data:`_ACTIVE` of their aim (most faces have margins far above any floor, 90% of
+    them on a random mesh), grown by the ones the weights bring near their aim and
+    solved again until none is left out. Returns (u, iterations, the working set's
+    problem, its indices into ``problem``)."""
+    active = problem.margins(u) < aim + _ACTIVE
+    used = 0
+    while True:
+        index = np.flatnonzero(active)
+        sub = problem.subset(index)
+        f_sub, a_sub = floor_t[index], aim[index]
+
+        def stop(v):
+            return bool((sub.margins(v) >= f_sub).all()) or timed_out()
+
+        u, k = _minimise(lambda v: sub.shortfall(v, a_sub), u, lo, hi, stop, budget - used)
+        used += k
+        near = ~active & (problem.margins(u) < aim + _ACTIVE / 2)
+        stuck = not (sub.margins(u) >= f_sub).all()   # the caller looks for a certificate
+        if stuck or not near.any() or used >= budget or timed_out():
+            return u, used, sub, index
+        active |= near
+
+
+#: Iterations of :func:`_decide` at a floor before it looks for a certificate and
+#: lowers the floor (the last floor gets what is left).
+_LEVEL_ITERATIONS = 2000
+
+#: The working set of :func:`_search_floor`: conditions within this margin of their aim.
+_ACTIVE = 0.05
+
+
+def _decide(problem, violated, target, lo, hi, deadline, max_iterations, notes):
+    """Search weights that lift every condition to its floor (:func:`_search_floor`, from
+    ``u = 0``); when it converges short of them, look for a certificate there, and else
+    try a floor ten, then a hundred times lower. Returns a dict: u, status ("regular",
+    "not regular", "undecided"), floor, floor_t, cert (rows of ``problem``, y),
+    iterations, lps.
+    """
+    out = {"iterations": 0, "lps": 0, "cert": None}
+    u = np.zeros(problem.n)
+
+    def timed_out():
+        return deadline is not None and time.perf_counter() > deadline
+
+    floors = (target, target / 10, target / 100)
+    for level, floor in enumerate(floors):
+        floor_t, aim = _aims(problem, violated, floor)
+        out.update(floor=floor, floor_t=floor_t)
+        budget = (max_iterations - out["iterations"]) // (len(floors) - level)
+        if level < len(floors) - 1:        # a stuck search is better off certified early
+            budget = min(budget, _LEVEL_ITERATIONS)
+        u, used, sub, index = _search_floor(problem, floor_t, aim, u, lo, hi, timed_out,
+                                            max(budget, 1))
+        out["iterations"] += used
+        out["u"] = u
+        if (problem.margins(u) >= floor_t).all():
+            return dict(out, status="regular")
+        if timed_out():
+            notes.append(f"stopped at the time limit after {out['iterations']} iterations")
+            return dict(out, status="undecided")
+        cert, solved = _certificate_near(sub, u, aim[index], deadline)
+        out["lps"] += solved
+        if cert is not None:
+            return dict(out, status="not regular", cert=(index[cert[0]], cert[1]))
+        if out["iterations"] >= max_iterations:
+            notes.append(f"stopped after max_iterations = {max_iterations} iterations")
+            return dict(out, status="undecided")
+        notes.append(f"margin {floor:g} not reached and no certificate: trying a lower one")
+    g = problem.margins(u)
+    if (g[violated] > 0).all():
+        out["floor"] = float(g[violated].min())
+        out["floor_t"] = np.minimum(out["floor_t"], g)
+        notes.append(f"repaired faces kept at margin {out['floor']:.3g}, below the floors")
+        return dict(out, status="regular")
+    notes.append("no floor reached and no certificate found")
+    return dict(out, status="undecided")
+
+
+def _mass_rows(V, T, w, l2, m_plain, rows, mass_floor):
+    """The masses of ``rows`` linearised at ``w`` as conditions ``B u >= aim`` in ``u``
+    units, each scaled by the plain mass: (B (k, n) csr_array, aim (k,), wgt (k,))."""
+    m = assembly.mass(V, T, "circumcentric", weights=w, degenerate="skip").diagonal()
+    J = _mass_jacobian(V, T, w, rows)                  # d m_rows / d w, (k, n)
+    scale = 1.0 / m_plain[rows]
+    B = sp.csr_array(sp.diags_array(scale) @ J @ sp.diags_array(l2))
+    goal = (mass_floor + 0.1 * (1 - mass_floor)) * m_plain[rows]
+    aim = (goal - m[rows] + J @ w) * scale
+    norms = np.asarray((B * B).sum(axis=1)).ravel()
+    return B, aim, 1.0 / np.maximum(norms, 1e-300)
+
+
+def _mass_deficit(V, T, w, m_plain, mass_floor):
+    """(vertices whose weighted mass is below ``mass_floor`` times a positive plain mass,
+    the sum of their relative deficits)."""
+    m = assembly.mass(V, T, "circumcentric", weights=w, degenerate="skip").diagonal()
+    positive = m_plain > 0
+    low = np.flatnonzero(positive & (m < mass_floor * m_plain))
+    return low, float(np.sum(mass_floor - m[low] / m_plain[low]))
+
+
+def _repair_masses(problem, V, T, u, l2, m_plain, mass_floor, floor_t, lo, hi, deadline,
+                   notes, rounds: int = 8, iterations: int = 300, radius: float = np.inf):
+    """Keep the weighted masses above ``mass_floor`` times the positive plain ones: the
+    masses below it, linearised at the current weights (exact derivatives by the complex
+    step), join the shortfall as hinge rows, then the faces alone are searched back to
+    half their floors when that broke them (optionally in a trust region
+    ``|u - u_k| <= radius``); ``rounds`` steps of at most ``iterations`` L-BFGS-B
+    iterations each, a step kept only when it lowers the masses' total deficit.
+    Returns u."""
+    aim_faces = floor_t + 0.1 * np.maximum(floor_t, 0.0)
+    floor_t = np.minimum(floor_t, floor_t / 2)    # the faces may give up half their floor
+    rows = np.zeros(0, dtype=np.int64)
+    low, deficit = _mass_deficit(V, T, u * l2, m_plain, mass_floor)
+    for _ in range(rounds):
+        if not len(low) or (deadline is not None and time.perf_counter() > deadline):
+            break
+        rows = np.union1d(rows, low)
+        B, aim, wgt = _mass_rows(V, T, u * l2, l2, m_plain, rows, mass_floor)
+
+        def fun(v, B=B, aim=aim, wgt=wgt):
+            f, grad = problem.shortfall(v, aim_faces)
+            r = np.maximum(0.0, aim - B @ v)
+            return f + 0.5 * _inner(r, wgt * r), grad - B.T @ (wgt * r)
+
+        def stop(v, B=B, aim=aim):
+            return bool((problem.margins(v) >= floor_t).all() and (B @ v >= aim).all()) or (
+                deadline is not None and time.perf_counter() > deadline)
+
+        v, _ = _minimise(fun, u, np.maximum(lo, u - radius), np.minimum(hi, u + radius),
+                         stop, iterations)
+        if not (problem.margins(v) >= floor_t).all():      # back to the faces' floors
+            v, _ = _minimise(lambda x: problem.shortfall(x, aim_faces), v, lo, hi,
+                             lambda x: bool((problem.margins(x) >= floor_t).all()),
+                             iterations)
+        low_v, deficit_v = _mass_deficit(V, T, v * l2, m_plain, mass_floor)
+        if not (problem.margins(v) >= floor_t).all() or deficit_v >= deficit:
+            break
+        u, low, deficit = v, low_v, deficit_v
+    if len(low):
+        notes.append(f"{len(low)} weighted masses stay below {mass_floor:g} x their plain "
+                     "value (no weights found that keep the faces regular and lift them)")
+    return u
 
 
 def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str = "free",
-                    mass_floor: float = 0.1, max_weight: float = 10.0,
-                    rtol: float = REGULAR_RTOL, max_rounds: int = 60,
-                    time_limit: float | None = None) -> RegularWeights:
+                    mass_floor: float | None = 0.1, max_weight: float = 10.0,
+                    rtol: float = REGULAR_RTOL, time_limit: float | None = None,
+                    max_iterations: int = 20000) -> RegularWeights:
     """Vertex weights that make the mesh regular, so that its weighted dual has
-    non-negative interior weights, or the proof (within the weight bound) that none do.
+    non-negative interior weights, or a proof that none do.
 
     Parameters
     ----------
     V : (n, 3) array-like of real numbers.  T : (m, 4) integer array-like, any orientation.
     target_margin : float > 0, the face margin (module docstring: dual-edge length over
         face size) the weights aim for on the faces they repair. Faces that are locally
-        Delaunay and away from the repairs keep their plain margin, whatever it is.
+        Delaunay keep at least ``min(half their plain margin, target_margin)``.
     boundary : ``"free"`` (default: boundary vertices get weights like any other) or
         ``"zero"`` (boundary weights fixed at 0). Boundary faces impose no condition, but a
         boundary vertex's weight enters the conditions of the interior faces around it and
         moves the power centers of its boundary tets (so its own and its neighbours'
         masses). ``"zero"`` keeps the boundary cells closer to the plain ones and can make
-        a regular mesh look non-regular.
+        a regular mesh non-regular.
     mass_floor : float in [0, 1) or None, keep every weighted circumcentric mass above
         ``mass_floor`` times its plain value where that is positive (0: only keep it
         positive). A soft constraint: the vertices where it fails are reported. None:
-        skip step 4 (masses are then only reported).
-    max_weight : bound on ``|w_i| / l_i^2`` (``l_i`` the vertex's mean edge length): the
-        LPs need a box, and the verdict "not regular" means "not with weights this big".
+        skip that step (masses are then only reported).
+    max_weight : bound on ``|w_i| / l_i^2`` (``l_i`` the vertex's mean edge length) in
+        the search. The proofs of "not regular" do not depend on it.
     rtol : the round-off tolerance of the regularity test (:data:`REGULAR_RTOL`).
-    max_rounds : cap on LPs solved (constraint generation rarely needs more than 10).
-    time_limit : float or None, in seconds. At the limit the LP stops and the weights are those of
-        the last complete LP, or 0 if none or if those violate more conditions than
-        ``w = 0``, with a note; ``.regular`` is then only what the weights achieve (a "no"
-        means "undecided").
+    time_limit : float or None, seconds for the whole call (None: no limit); at the
+        limit the search stops with ``status == "undecided"`` unless already decided.
+    max_iterations : int, cap on L-BFGS-B iterations (each a few sparse products over the
+        faces); past it the status is ``"undecided"`` unless already decided.
 
     Returns
     -------
-    :class:`RegularWeights` (``.weights``, ``.regular``, ``.margin``,
-    ``.violated_faces``, masses and counts; ``str()`` is a short report).
+    :class:`RegularWeights` (``.weights``, ``.regular``, ``.status``, ``.margin``,
+    ``.violated_faces``, ``.certificate_faces``, masses and counts; ``str()`` is a short
+    report).
 
     Method
     ------
-    Every local condition is linear in ``w``, so regularity is an LP feasibility problem,
-    but the mesh-wide LP is slow (tens of seconds at 8k tets) and most of it is idle: only
-    faces near the non-Delaunay ones ever bind. So, by constraint generation:
+    Every local condition is linear in ``w``, so regularity is a linear feasibility
+    problem; a general LP on the whole mesh needs minutes at 20k tets. Instead:
 
-    1. ``w = 0`` first: a Delaunay mesh is returned as it is.
-    2. Variables are the weights of the vertices of the violated faces (of the boundary
-       too unless ``boundary="zero"``); constraints the conditions that touch them and
-       are not comfortably satisfied. *Minimum-weight LP*: minimise ``sum |w_i| / l_i^2``
-       subject to margin ``>= target_margin`` (HiGHS dual simplex). Conditions that the
-       new weights push below the target join, and the LP is solved again, until none do.
-       The smallest weights have two virtues: the result is local (the weighted dual
-       equals the plain one away from the repairs) and the power cells stay close to the
-       plain ones. Weights are not unique (the margin grows without bound with the
-       weights on a regular mesh); the target margin and the L1 norm pick them.
-    3. If that LP is infeasible, the variables grow by one ring of vertices (every vertex
-       of an active condition) and step 2 is repeated, up to 3 rings; then with the
-       target lowered to a tenth, a hundredth and ``1e-7``. If even that fails the mesh is
-       reported *not regular* (strictly: no weights within ``max_weight`` on these rings
-       give a margin of ``1e-7``; meshes whose best margin is exactly 0, as in the
-       degenerate cases of the "mother of all examples", count as not regular); the
-       weights then minimise, by reweighted L1 (three LPs, Candes-Wakin-Boyd), the
-       shortfall ``sum max(0, target / 10 - margin)``: a proxy for *the number of
-       violated faces*, which is what they try to make small (not the largest
-       violation). Masses are not repaired in that case.
-       (A max-margin LP, "margin >= t, maximise t", would decide regularity more
-       directly, but its ``t`` column is dense and HiGHS needs minutes at 60k rows.)
-    4. *Masses*: large or unbalanced weights shrink power cells, at the boundary (inside,
-       a regular mesh's cells are convex polytopes of positive volume, since the dual
-       faces around an interior vertex close up convexly). Vertices whose
-       weighted mass falls below ``mass_floor`` times a positive plain mass get a linear
-       constraint (the mass linearised at the current weights, exact derivatives by the
-       complex step of a NumPy copy of the core's kernel), soft with a large penalty;
-       repeated until the masses hold (sequential LP).
+    1. ``w = 0`` first: a Delaunay mesh (no violated face) is returned as it is, for the
+       cost of the face conditions (one vectorised pass) and one assembly.
+    2. *Search*, first order: minimise the squared shortfalls
+       ``sum_f max(0, aim_f - margin_f(w))^2`` (each normalised by the gradient of its
+       margin, so it is a squared distance to the face's half-space) by L-BFGS-B
+       (SciPy) from ``w = 0`` within ``|w_i| <= max_weight * l_i^2``, with ``aim_f``
+       a little above ``target_margin`` on the faces violated at ``w = 0`` and above
+       ``min(plain margin / 2, target_margin)`` on the others. Boundary weights are
+       kept ``>= 0`` first (boundary power cells then only grow, which keeps the boundary
+       masses positive: 24 masses lost -> 0 on ``flipfree_fish_blub``); when that search
+       is undecided (it gets half of ``max_iterations``), it is run again with weights
+       of either sign (the other half). It stops as soon as every face
+       reaches its floor: *regular*, confirmed by the margin test (:data:`REGULAR_RTOL`).
+       Starting from 0 keeps the weights local (zero away from the repairs) and small.
+    3. *Certificate*: when the search converges short of the floors, the conditions still
+       short of their aim carry the multipliers of its optimality condition; an LP
+       (HiGHS) on them, then on one ring more, looks for Gordan multipliers: ``y >= 0``,
+       ``y != 0`` with ``sum_f y_f grad margin_f = 0``. Found (and verified: relative
+       residual below 1e-8), no weights at all make those faces strictly locally
+       regular: *not regular*, proved. Else the floor is lowered to a tenth, then a
+       hundredth of the target, and finally any strictly positive margin is accepted.
+    4. *Masses* (regular meshes, ``mass_floor``): vertices whose weighted mass falls below
+       ``mass_floor`` times a positive plain mass get a hinge row on their mass,
+       linearised at the current weights (exact derivatives by the complex step of a NumPy
+       copy of the core's kernel), then the faces alone back to their floors; up to 8
+       rounds of 300 iterations, each kept when it lowers the total deficit, the faces kept at half their floors at
+       least (``margin_floor`` reports the floor before that).
 
-    Deterministic: the same input gives the same output.
+    Near-flat tets (hull slivers) may be refused by the core's accuracy guard with the
+    weights found (``DegenerateElementError``: weights far larger than their squared
+    edges); pass ``degenerate="skip"`` to the operators then, as the counts here do.
+
+    When the mesh is not regular (or undecided) the weights are the search's last ones
+    (they minimise the sum of squared shortfalls, which spreads violations rather than
+    minimising their number), or 0 if those violate more faces than ``w = 0``.
+
+    Deterministic (the same input gives the same output). Inputs are not modified.
 
     Raises
     ------
@@ -605,252 +881,191 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
     >>> T = tetlap.meshes.regular_triangulation(P, rng.uniform(0, 0.05, size=300))
     >>> V, T = tetlap.meshes.compact(P, T)
     >>> r = regular_weights(V, T)
-    >>> bool(r.regular), r.n_negative_interior_plain > 0, r.n_negative_interior_weighted
-    (True, True, 0)
+    >>> r.status, r.n_negative_interior_plain > 0, r.n_negative_interior_weighted
+    ('regular', True, 0)
     >>> L = tetlap.laplacian(V, T, "dual", weights=r.weights)
     >>> bool(tetlap.check(L, V, T).linear_precision_ok)
     True
     """
     start = time.perf_counter()
     V, T = _validated(V, T)
-    if not (isinstance(target_margin, (int, float)) and 0 < target_margin < np.inf):
-        raise OptionError(f"target_margin must be a positive number, got {target_margin!r}")
-    if boundary not in ("free", "zero"):
-        raise OptionError(f'boundary must be "free" or "zero", got {boundary!r}')
-    if mass_floor is not None and not (0 <= mass_floor < 1):
-        raise OptionError(f"mass_floor must lie in [0, 1), got {mass_floor!r}")
-    if not (max_weight > 0 and np.isfinite(max_weight)):
-        raise OptionError(f"max_weight must be a positive number, got {max_weight!r}")
-    if not (rtol >= 0 and np.isfinite(rtol)):
-        raise OptionError(f"rtol must be a non-negative number, got {rtol!r}")
-    if time_limit is not None and not (time_limit > 0):
-        raise OptionError(f"time_limit must be positive seconds or None, got {time_limit!r}")
-    if not (isinstance(max_rounds, (int, np.integer)) and max_rounds >= 1):
-        raise OptionError(f"max_rounds must be a positive integer, got {max_rounds!r}")
-
-    n = len(V)
-    on_boundary = boundary_vertices(T, n)
-    cond = _conditions(V, T)
-    zero = np.zeros(n)
-    g0 = cond.margins(zero)
-    tol0 = cond.tolerance(zero, rtol)
+    _check_options(target_margin, boundary, mass_floor, max_weight, rtol, time_limit,
+                   max_iterations)
+    deadline = None if time_limit is None else start + time_limit
+    on_boundary, interior = _mesh_faces(V, T)
+    cond = _conditions(V, T, interior)
+    zero = np.zeros(len(V))
+    violated0 = cond.g0 < -cond.tolerance(zero, rtol)
     notes: list[str] = []
-    m_plain = _masses(V, T, zero)
-    w = zero
-    max_reached = None
-    problem = None
-    violated0 = g0 < -tol0
+    n_neg_plain, m_plain, _ = _dual(V, T, None, on_boundary)
+    w, outcome = zero, None
     if (violated0 & ~cond.folded[cond.face]).any():
-        l2 = _vertex_lengths(V, T) ** 2
-        allowed = np.ones(n, dtype=bool) if boundary == "free" else ~on_boundary
-        deadline = None if time_limit is None else start + time_limit
-        problem = _Problem(cond, l2, allowed, max_weight, deadline)
-        u, max_reached = _solve(problem, cond, g0, violated0, target_margin, mass_floor,
-                                m_plain, V, T, l2, allowed, max_rounds, notes)
-        w = u * l2
-        if any(note.startswith("stopped") for note in notes):
-            # an interrupted run: keep the weights only if they violate fewer faces
-            if (cond.margins(w) < -cond.tolerance(w, rtol)).sum() > violated0.sum():
-                w = zero
-                notes.append("the interrupted weights were worse than w = 0: w = 0")
+        w, outcome = _search_weights(V, T, cond, on_boundary, violated0, m_plain, deadline,
+                                     target_margin, boundary, mass_floor, max_weight,
+                                     max_iterations, rtol, notes)
     elif violated0.any():
         notes.append("only folded faces are violated: no weights help, w = 0")
     else:
         notes.append("Delaunay: the plain dual (w = 0) is already the answer")
+    n_neg_w, m_weighted = ((n_neg_plain, m_plain) if not w.any()
+                           else _dual(V, T, w, on_boundary)[:2])
+    return _result(cond, w, outcome, violated0, rtol, target_margin, mass_floor,
+                   (n_neg_plain, n_neg_w), (m_plain, m_weighted), notes, start)
 
+
+def _search_weights(V, T, cond, on_boundary, violated0, m_plain, deadline, target_margin,
+                    boundary, mass_floor, max_weight, max_iterations, rtol, notes):
+    """Steps 2-4 of :func:`regular_weights`: returns (w (n,), the outcome of
+    :func:`_decide` with the problem under ``"problem"``)."""
+    l2 = _vertex_lengths(V, T) ** 2
+    allowed = np.ones(len(V), dtype=bool) if boundary == "free" else ~on_boundary
+    hi = np.where(allowed, float(max_weight), 0.0)
+    problem = _Problem.of(cond, l2)
+    iterations = 0
+    for lo, budget in ((np.where(on_boundary, 0.0, -hi), max_iterations // 2),
+                       (-hi, max_iterations)):
+        outcome = _decide(problem, violated0[problem.rows], target_margin, lo, hi, deadline,
+                          budget - iterations, notes)
+        iterations += outcome["iterations"]
+        if (outcome["status"] != "undecided" or not (on_boundary & allowed).any()
+                or iterations >= max_iterations):
+            break
+        notes.append("boundary weights >= 0 were not enough: weights of either sign")
+    outcome["iterations"] = iterations
+    outcome["problem"] = problem
+    u = outcome["u"]
+    if outcome["status"] == "regular" and mass_floor is not None:
+        u = _repair_masses(problem, V, T, u, l2, m_plain, mass_floor, outcome["floor_t"],
+                           lo, hi, deadline, notes)
+    w = u * l2
+    if outcome["status"] != "regular":
+        violated = cond.margins(w) < -cond.tolerance(w, rtol)
+        if violated.sum() > violated0.sum():
+            notes.append("the search's weights violate more faces than w = 0: w = 0")
+            w = np.zeros(len(V))
+    return w, outcome
+
+
+def _certificate_of(cond, outcome):
+    """(faces (k, 3), multipliers (k,), relative residual) of the proof of non-regularity:
+    the folded faces (multipliers 1, residual 0) or the LP's certificate; empty arrays
+    and None when there is none."""
+    if cond.folded.any():
+        k = int(cond.folded.sum())
+        return cond.tri[cond.folded].astype(np.int64), np.ones(k), 0.0
+    if outcome is None or outcome["cert"] is None:
+        return np.zeros((0, 3), dtype=np.int64), np.zeros(0), None
+    problem = outcome["problem"]
+    rows, y = outcome["cert"]
+    faces = cond.face[problem.rows[rows]]      # non-folded: one condition per face
+    return cond.tri[faces].astype(np.int64), y, problem.residual(rows, y)
+
+
+def _result(cond, w, outcome, violated0, rtol, target_margin, mass_floor, negatives,
+            masses, notes, start) -> RegularWeights:
+    """The verdict (the margin test on ``w``, else the certificate) and the report."""
     g = cond.margins(w)
-    tol = cond.tolerance(w, rtol)
-    bad_cond = g < -tol
     bad = np.zeros(cond.n_faces, dtype=bool)
-    bad[cond.face[bad_cond]] = True
+    bad[cond.face[g < -cond.tolerance(w, rtol)]] = True
     bad |= cond.folded
     per_face = cond.per_face(g)
-    m_weighted = _masses(V, T, w) if problem is not None else m_plain
+    certificate, multipliers, residual = _certificate_of(cond, outcome)
+    if len(certificate):
+        status = "not regular"
+        notes.append(f"not regular: a certificate on {len(certificate)} faces "
+                     + ("(folded)" if residual == 0.0 else
+                        f"(Gordan multipliers, relative residual {residual:.1e})"))
+    elif not bad.any():
+        status = "regular"
+    else:
+        status = "undecided"
+        if outcome is not None and outcome["status"] == "regular":
+            notes.append("the search's floors were met but the margin test (rtol) was not")
+    m_plain, m_weighted = masses
     positive = m_plain > 0
-    lost = np.flatnonzero(positive & (m_weighted <= 0))
-    below = np.flatnonzero(positive & (m_weighted < (mass_floor or 0.0) * m_plain))
-    n_neg_plain = _negative_interior(V, T, None, on_boundary)
-    n_neg_w = n_neg_plain if problem is None else _negative_interior(V, T, w, on_boundary)
-    if cond.folded.any():
-        notes.append(f"{int(cond.folded.sum())} folded faces (both tets on one side): "
-                     "no weights make them regular")
+    regular = status == "regular"
     return RegularWeights(
         weights=w,
-        regular=not bad.any(),
+        regular=regular,
         margin=float(per_face.min()) if cond.n_faces else 0.0,
         violated_faces=cond.tri[bad].astype(np.int64),
         face_margins=per_face,
-        margin_plain=float(cond.per_face(g0).min()) if cond.n_faces else 0.0,
+        margin_plain=float(cond.per_face(cond.g0).min()) if cond.n_faces else 0.0,
         n_violated_plain=int(np.unique(cond.face[violated0]).size),
         n_folded=int(cond.folded.sum()),
         target_margin=float(target_margin),
-        margin_floor=max_reached,
+        margin_floor=float(outcome["floor"]) if regular and outcome is not None else None,
         n_weighted_vertices=int((w != 0).sum()),
-        n_negative_interior_plain=n_neg_plain,
-        n_negative_interior_weighted=n_neg_w,
+        n_negative_interior_plain=negatives[0],
+        n_negative_interior_weighted=negatives[1],
         mass_min_plain=float(m_plain.min()),
         mass_min_weighted=float(m_weighted.min()),
-        masses_lost=lost.astype(np.int64),
-        masses_below_floor=below.astype(np.int64),
-        lp_rounds=0 if problem is None else problem.rounds,
-        lp_max_size=(0, 0) if problem is None else tuple(int(x) for x in problem.max_size),
+        masses_lost=np.flatnonzero(positive & (m_weighted <= 0)).astype(np.int64),
+        masses_below_floor=np.flatnonzero(
+            positive & (m_weighted < (mass_floor or 0.0) * m_plain)).astype(np.int64),
         seconds=time.perf_counter() - start,
         notes=notes,
+        status=status,
+        certificate_faces=certificate,
+        certificate_multipliers=multipliers,
+        certificate_residual=residual,
+        iterations=0 if outcome is None else outcome["iterations"],
+        lp_count=0 if outcome is None else outcome["lps"],
     )
 
 
-def _solve(problem, cond, g0, violated0, target, mass_floor, m_plain, V, T, l2, allowed,
-           max_rounds, notes):
-    """Steps 2-4 of :func:`regular_weights`; returns (u = w / l^2, margin floor reached
-    or None when the mesh is not regular)."""
-    n = len(l2)
-    S = np.zeros(n, dtype=bool)                      # variable vertices
-    S[cond.idx[violated0 & problem.usable].ravel()] = True
-    S &= allowed
-    near = 2 * target + 0.02         # touched conditions below this margin are active
-    active = problem.touched(S) & (g0 < near)
-    slack = 10 * _LP_TOL
-    # the floors tried in turn: the target, then smaller ones, each after growing the
-    # variables ring by ring (an infeasible LP over a few rings is the usual sign that
-    # the repair needs more room, not that the mesh is not regular)
-    floors = [target, target / 10, target / 100, _TINY_MARGIN]
-    state = {"mode": "min-weight", "floor": floors[0], "mass": None, "hinge_cost": None}
+def _check_options(target_margin, boundary, mass_floor, max_weight, rtol, time_limit,
+                   max_iterations):
+    def number(x):
+        return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
 
-    def lp():
-        if state["mode"] == "min-weight":
-            return problem.solve(S, active, margin_floor=state["floor"],
-                                 mass_rows=state["mass"])[:2]
-        cost = state["hinge_cost"]
-        return problem.solve(S, active, hinge_target=0.1 * target, weight_cost=1e-3,
-                             hinge_cost=None if cost is None else cost[active],
-                             mass_rows=state["mass"])[:2]
-
-    def grow_ring():
-        """Let every vertex of an active condition join; False when none is new."""
-        ring = np.zeros(n, dtype=bool)
-        ring[cond.idx[active].ravel()] = True
-        ring &= allowed & ~S
-        if not ring.any():
-            return False
-        S[ring] = True
-        active[problem.touched(S) & (g0 < near)] = True
-        return True
-
-    rings = 0
-
-    def generate():
-        """Solve; add the touched conditions that the solution pushes below the floor;
-        repeat. On infeasibility grow the variables, then lower the floor, then give up
-        on regularity (hinge mode)."""
-        nonlocal rings
-        while problem.rounds < max_rounds:
-            status, u = lp()
-            if status == 2 and state["mode"] == "min-weight":
-                if rings < _RINGS and grow_ring():
-                    rings += 1
-                    continue
-                lower = [f for f in floors if f < np.min(state["floor"])]
-                if lower and state["mass"] is None:
-                    state["floor"] = lower[0]
-                    rings = 0
-                    continue
-                if state["mass"] is not None:
-                    return None          # the mass rows made it infeasible: keep the last
-                state["mode"] = "hinge"
-                continue
-            if status == 1:
-                notes.append("stopped at the time limit (the weights are those of the last "
-                             "complete LP, or 0)")
-                return state.get("last")
-            if status != 0:
-                raise TetlapError(f"the LP solver failed (HiGHS status {status})")
-            state["last"] = u
-            g = cond.margins(u * l2)
-            low = state["floor"] if state["mode"] == "min-weight" else 0.1 * target
-            new = problem.touched(S) & ~active & (g < np.minimum(low, target) - slack)
-            if not new.any():
-                return u
-            active[new] = True
-        notes.append(f"stopped after max_rounds = {max_rounds} LPs")
-        return None
-
-    u = generate()
-    if u is None:
-        return np.zeros(n), None
-    if state["mode"] == "hinge":
-        notes.append("not regular within max_weight (no weights found with margin "
-                     f"{floors[-1]:g} on {_RINGS} rings around the violations): the "
-                     "weights reduce the number of violated faces instead")
-        # reweighted L1 (Candes, Wakin & Boyd 2008): fewer, larger violations
-        for _ in range(2):
-            g = cond.margins(u * l2)
-            shortfall = np.maximum(0.0, 0.1 * target - g)
-            state["hinge_cost"] = 1.0 / (shortfall / (0.1 * target) + 1e-3)
-            u_new = generate()
-            if u_new is None:
-                break
-            u = u_new
-        return u, None
-    if state["floor"] < target:
-        notes.append(f"target margin {target:g} out of reach: margin {state['floor']:g}")
-    reached = float(state["floor"])
-
-    # -- 4: masses (sequential LP, linearised mass rows accumulated as cuts) ------------
-    positive = m_plain > 0
-    cuts = []
-    for _ in range(0 if mass_floor is None else 8):
-        m = _masses(V, T, u * l2)
-        low = np.flatnonzero(positive & (m < mass_floor * m_plain))
-        if not len(low) or problem.rounds >= max_rounds:
-            break
-        w_now = u * l2
-        R = np.union1d(low, cuts[-1][3]) if cuts else low
-        J = _mass_jacobian(V, T, w_now, R)
-        # m(w) ~ m(w_now) + J (w - w_now) >= goal, a little above the floor
-        goal = (mass_floor + 0.1 * (1 - mass_floor)) * m_plain[R]
-        cuts.append((J, goal - m[R] + J @ w_now, m_plain[R], R))
-        state["mass"] = (sp.vstack([c[0] for c in cuts], format="csr"),
-                         np.concatenate([c[1] for c in cuts]),
-                         np.concatenate([c[2] for c in cuts]))
-        ring = np.zeros(n, dtype=bool)               # the mass rows' weights join
-        ring[J.indices] = True
-        S[ring & allowed] = True
-        active |= problem.touched(S) & (cond.margins(w_now) < near)
-        u_new = generate()
-        if u_new is None:
-            break
-        u = u_new
-    return u, reached
-
-
-#: Rings of vertices the variables may grow by before a lower floor is tried.
-_RINGS = 3
-#: The last floor tried: strictly positive (above the LP tolerance), so that "regular"
-#: always means a strictly positive margin was found.
-_TINY_MARGIN = 1e-7
+    if not (number(target_margin) and 0 < target_margin < np.inf):
+        raise OptionError(f"target_margin must be a positive number, got {target_margin!r}")
+    if boundary not in ("free", "zero"):
+        raise OptionError(f'boundary must be "free" or "zero", got {boundary!r}')
+    if mass_floor is not None and not (number(mass_floor) and 0 <= mass_floor < 1):
+        raise OptionError(f"mass_floor must lie in [0, 1) or be None, got {mass_floor!r}")
+    if not (number(max_weight) and 0 < max_weight < np.inf):
+        raise OptionError(f"max_weight must be a positive number, got {max_weight!r}")
+    if not (number(rtol) and 0 <= rtol < np.inf):
+        raise OptionError(f"rtol must be a non-negative number, got {rtol!r}")
+    if time_limit is not None and not (number(time_limit) and time_limit > 0):
+        raise OptionError(f"time_limit must be positive seconds or None, got {time_limit!r}")
+    if not (isinstance(max_iterations, (int, np.integer)) and not isinstance(max_iterations, bool)
+            and max_iterations >= 1):
+        raise OptionError(f"max_iterations must be a positive integer, got {max_iterations!r}")
 
 
 # --------------------------------------------------------------------------------------
 # What `tetlap info` prints
 # --------------------------------------------------------------------------------------
 
-def summary(V, T, result: RegularWeights | None = None, *, nsd: bool = False) -> dict:
+def summary(V, T, result: RegularWeights | None = None, *, nsd: bool = False,
+            time_limit: float | None = None, reports: dict | None = None) -> dict:
     """Regularity and what the weighted dual gains, as a JSON-ready dict for ``tetlap info``.
 
     Parameters
     ----------
     V : (n, 3) array-like.  T : (m, 4) integer array-like.
-    result : a :class:`RegularWeights` of this mesh (computed with defaults when None).
+    result : a :class:`RegularWeights` of this mesh (computed when None, with
+        ``time_limit``).
     nsd : also check negative semidefiniteness of the three Laplacians (slow on big meshes).
+    time_limit : seconds for :func:`regular_weights` when ``result`` is None (None: no
+        limit); past it the verdict is ``"undecided"``.
+    reports : optional ``{"dual": ..., "primal": ...}``, :meth:`tetlap.Report.to_dict`
+        of the plain dual and the primal on this mesh (``tetlap info`` has them): their
+        counts are used instead of checking those two Laplacians again.
 
     Returns
     -------
-    dict with ``regular`` (bool), ``margin``, ``margin_plain``, ``n_non_delaunay_faces``,
-    ``n_weighted_vertices``, ``negative_interior_weights`` ({"dual", "weighted_dual",
-    "primal"}: counts on edges not both on the boundary), ``nsd`` (same keys, or None),
-    ``linear_precision_weighted_dual`` (bool, None without interior vertices), ``masses_lost`` (count of positive plain
+    dict with ``regular`` (bool), ``status`` (one of :data:`STATUSES`), ``margin``,
+    ``margin_plain``, ``n_non_delaunay_faces``, ``n_weighted_vertices``,
+    ``negative_interior_weights`` ({"dual", "weighted_dual", "primal"}: counts on edges
+    not both on the boundary), ``nsd`` (same keys, or None), ``linear_precision_weighted_dual``
+    (bool, None without interior vertices), ``masses_lost`` (count of positive plain
     circumcentric masses that the weights make non-positive), ``mass_min`` ({"dual",
-    "weighted_dual"}), ``violated_faces`` (count), ``seconds``.
+    "weighted_dual"}), ``violated_faces`` (count), ``certificate_faces`` (count),
+    ``iterations``, ``notes``, ``seconds`` (of :func:`regular_weights`).
 
     Example
     -------
@@ -858,33 +1073,42 @@ def summary(V, T, result: RegularWeights | None = None, *, nsd: bool = False) ->
     >>> from tetlap.regular import summary
     >>> V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)
     >>> s = summary(V, T)
-    >>> s["regular"], s["negative_interior_weights"]["weighted_dual"]
-    (True, 0)
+    >>> s["status"], s["negative_interior_weights"]["weighted_dual"]
+    ('regular', 0)
     """
     from .properties import check
 
     V, T = _validated(V, T)
-    r = regular_weights(V, T) if result is None else result
+    r = regular_weights(V, T, time_limit=time_limit) if result is None else result
     if len(r.weights) != len(V):
         raise _arrays.ShapeError(f"the result has {len(r.weights)} weights, the mesh "
                                  f"{len(V)} vertices")
-    operators = {
-        "dual": assembly.laplacian(V, T, "dual"),
-        "weighted_dual": assembly.laplacian(V, T, "dual", weights=r.weights),
-        "primal": assembly.laplacian(V, T, "primal"),
-    }
-    reports = {k: check(L, V, T, nsd=nsd) for k, L in operators.items()}
+    reports = dict(reports or {})
+    weights = r.weights if r.weights.any() else None
+    kinds = {"dual": ("dual", None), "weighted_dual": ("dual", weights),
+             "primal": ("primal", None)}
+    for key, (kind, w) in kinds.items():
+        if key == "weighted_dual" and w is None and not nsd and "dual" in reports:
+            reports[key] = reports["dual"]
+        if key not in reports or (nsd and reports[key].get("nsd") is None):
+            L = assembly.laplacian(V, T, kind, weights=w, degenerate="skip")
+            reports[key] = check(L, V, T, nsd=nsd).to_dict()
     return {
         "regular": bool(r.regular),
+        "status": r.status,
         "margin": r.margin,
         "margin_plain": r.margin_plain,
         "n_non_delaunay_faces": r.n_violated_plain,
         "n_weighted_vertices": r.n_weighted_vertices,
-        "negative_interior_weights": {k: rep.n_negative_interior for k, rep in reports.items()},
-        "nsd": {k: rep.nsd for k, rep in reports.items()} if nsd else None,
-        "linear_precision_weighted_dual": reports["weighted_dual"].linear_precision_ok,
+        "negative_interior_weights": {k: int(reports[k]["n_negative_interior"])
+                                      for k in kinds},
+        "nsd": {k: reports[k]["nsd"] for k in kinds} if nsd else None,
+        "linear_precision_weighted_dual": reports["weighted_dual"]["linear_precision_ok"],
         "masses_lost": int(len(r.masses_lost)),
         "mass_min": {"dual": r.mass_min_plain, "weighted_dual": r.mass_min_weighted},
         "violated_faces": int(len(r.violated_faces)),
+        "certificate_faces": int(len(r.certificate_faces)),
+        "iterations": r.iterations,
+        "notes": list(r.notes),
         "seconds": r.seconds,
     }
