@@ -216,7 +216,7 @@ def test_the_parser_knows_the_defaults():
     args = cli.parser().parse_args(["bench", "--threads", str(tetlap.MAX_THREADS)])
     assert args.threads == tetlap.MAX_THREADS and args.quick is False and args.repeat is None
     args = cli.parser().parse_args(["info"])
-    assert (args.no_regular, args.regular_time) == (False, tetlap.info.REGULAR_TIME_LIMIT)
+    assert (args.no_regular, args.regular_time) == (False, None)  # None: info's own budget
     args = cli.parser().parse_args(["experiment", "flips", "--quick", "--seed", "3"])
     assert (args.name, args.quick, args.seed, args.out) == ("flips", True, 3, None)
 

@@ -301,6 +301,15 @@ def test_regular_section_statuses_and_budget():
     assert info.report(V4, T, nsd=False, progress=False)["regular"]["status"] == "n/a"
 
 
+def test_big_meshes_are_searched_only_when_asked(monkeypatch):
+    V, T = tetlap.meshes.ball(300, seed=3)
+    monkeypatch.setattr(info, "REGULAR_MAX_TETS", len(T) - 1)
+    r = info.report(V, T, nsd=False, progress=False)["regular"]
+    assert r["status"] == "n/a" and "--regular-time" in r["reason"]
+    r = info.report(V, T, nsd=False, progress=False, regular_time_limit=30.0)["regular"]
+    assert r["status"] == "regular"
+
+
 def test_progress_goes_to_stderr_only(capsys):
     V, T = tetlap.meshes.cube(2)
     info.report(V, T, nsd=False, progress=True)

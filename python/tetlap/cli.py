@@ -237,9 +237,10 @@ def parser() -> argparse.ArgumentParser:
                       help="skip the semidefiniteness certificates (default: computed)")
     info.add_argument("--no-regular", action="store_true",
                       help="skip the search for regular (weighted Delaunay) weights")
-    info.add_argument("--regular-time", type=float, default=REGULAR_TIME_LIMIT, metavar="S",
+    info.add_argument("--regular-time", type=float, default=None, metavar="S",
                       help="seconds for that search; past it the verdict is 'undecided' "
-                           f"(default {REGULAR_TIME_LIMIT:g})")
+                           "(default: half the time of the other checks, 1 to "
+                           f"{REGULAR_TIME_LIMIT:g} s)")
     info.add_argument("--plot", metavar="DIR",
                       help="also write histograms of dihedral angles, weights and masses "
                            "(PNG) into DIR")

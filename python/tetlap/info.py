@@ -15,23 +15,33 @@ Example
 
 from __future__ import annotations
 
+import time
+
 from . import _arrays, assembly, diagnostics
 from ._progress import Stages
 from .properties import NEGATIVE_TOL, _check
 
-__all__ = ["report", "plot", "PAIRS", "REGULAR_TIME_LIMIT"]
+__all__ = ["report", "plot", "PAIRS", "REGULAR_TIME_LIMIT", "REGULAR_TIME_SHARE",
+           "REGULAR_MAX_TETS"]
 
 #: The operators of the report: (Laplacian kind, mass kind).
 PAIRS = (("primal", "barycentric"), ("dual", "circumcentric"))
 
 
-#: Default seconds for the ``regular`` section (:func:`tetlap.regular.regular_weights`):
-#: past it the verdict is "undecided", so that ``tetlap info`` stays fast on big meshes.
+#: The default budget of the ``regular`` section (:func:`tetlap.regular.regular_weights`)
+#: is ``REGULAR_TIME_SHARE`` times the time the rest of the report took, at least 1 s and
+#: at most ``REGULAR_TIME_LIMIT`` seconds: past it the verdict is "undecided", so that
+#: ``tetlap info`` costs at most 1.5x its other checks on big meshes (which are ``O(m)``).
 REGULAR_TIME_LIMIT = 10.0
+REGULAR_TIME_SHARE = 0.5
+#: Above this many tets the default report leaves the search out (``status`` "n/a"): its
+#: set-up alone (NumPy, about 2.5 s per 1M tets here) exceeds the budget. An explicit
+#: ``regular_time_limit`` runs it at any size.
+REGULAR_MAX_TETS = 300_000
 
 
 def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
-           regular: bool = True, regular_time_limit: float | None = REGULAR_TIME_LIMIT) -> dict:
+           regular: bool = True, regular_time_limit: float | None = None) -> dict:
     """The report of ``tetlap info`` as a JSON-ready dict.
 
     Parameters
@@ -47,8 +57,11 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
     regular : bool, default True
         Add the ``regular`` section: is the mesh regular (weighted Delaunay), and what the
         weighted dual with the weights found gains (:func:`tetlap.regular.summary`).
-    regular_time_limit : float or None, default :data:`REGULAR_TIME_LIMIT` seconds
-        Budget of that search; past it its ``status`` is ``"undecided"``.
+    regular_time_limit : float, optional
+        Seconds for that search; past it its ``status`` is ``"undecided"``. Default:
+        half the time the rest of the report took, clamped to [1, 10] seconds
+        (:data:`REGULAR_TIME_SHARE`, :data:`REGULAR_TIME_LIMIT`), and no search above
+        :data:`REGULAR_MAX_TETS` tets.
 
     Returns
     -------
@@ -64,6 +77,7 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
+    start = time.perf_counter()
     step = Stages("tetlap info", progress)
     step("mesh diagnostics")
     summary, boundary = diagnostics._summary(V, T)
@@ -79,7 +93,15 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
     result["regular"] = None
     if regular:
         step("regular weights")
-        result["regular"] = _regular_section(V, T, result, regular_time_limit)
+        if regular_time_limit is None and len(T) > REGULAR_MAX_TETS:
+            result["regular"] = {"status": "n/a", "reason": (
+                f"{len(T)} tets > {REGULAR_MAX_TETS}: not searched by default, pass a time "
+                "limit (--regular-time S) to search")}
+        else:
+            if regular_time_limit is None:
+                spent = time.perf_counter() - start
+                regular_time_limit = min(REGULAR_TIME_LIMIT, max(1.0, REGULAR_TIME_SHARE * spent))
+            result["regular"] = _regular_section(V, T, result, regular_time_limit)
     step.done()
     return result
 
