@@ -40,3 +40,30 @@ pub fn grid(k: usize) -> (Vec<f64>, Vec<[u32; 4]>) {
     }
     (points, tets)
 }
+
+/// The same mesh with its vertices and its tets renumbered by `i -> i * a mod len` for a
+/// large `a` coprime to the length: consecutive indices land far apart, as in a shuffled
+/// user mesh, deterministically and without a random-number crate.
+#[allow(dead_code)] // used by some of the benchmarks that include this file
+pub fn scrambled(points: &[f64], tets: &[[u32; 4]]) -> (Vec<f64>, Vec<[u32; 4]>) {
+    let scramble = |len: usize| -> Vec<usize> {
+        let mut a = 2_654_435_761usize % len.max(2);
+        while gcd(a, len) != 1 {
+            a += 1;
+        }
+        (0..len).map(|i| i * a % len).collect()
+    };
+    let n = points.len() / 3;
+    let new_of_old = scramble(n);
+    let mut moved = vec![0.0; points.len()];
+    for (old, &new) in new_of_old.iter().enumerate() {
+        moved[3 * new..3 * new + 3].copy_from_slice(&points[3 * old..3 * old + 3]);
+    }
+    let order = scramble(tets.len());
+    let renumbered = order.iter().map(|&t| tets[t].map(|v| new_of_old[v as usize] as u32)).collect();
+    (moved, renumbered)
+}
+
+fn gcd(a: usize, b: usize) -> usize {
+    if b == 0 { a } else { gcd(b, a % b) }
+}

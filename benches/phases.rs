@@ -1,9 +1,10 @@
 //! Where the time goes: the phases of one-shot assembly of the Rust core, timed alone.
 //!
-//! `cargo bench --bench phases` (medians of 11 runs on a 998,250-tet Kuhn grid).
+//! `cargo bench --bench phases` (medians of 11 runs on a 998,250-tet Kuhn grid, in its
+//! own order and scrambled).
 
 use std::time::Instant;
-use tetlap::{contributions, laplacian, operators, LaplacianKind, MassKind, Options, Tet, TetMesh, Topology};
+use tetlap::{contributions, laplacian, operators, CachedMesh, LaplacianKind, MassKind, Options, Tet, TetMesh};
 
 #[path = "grid.rs"]
 mod grid;
@@ -15,11 +16,19 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 fn main() {
     let (points, tets) = grid::grid(55);
-    let mesh = TetMesh::new(&points, 3, &tets).unwrap();
+    let scrambled = grid::scrambled(&points, &tets);
+    for (label, (points, tets)) in [("Kuhn grid", (points, tets)), ("Kuhn grid, scrambled", scrambled)] {
+        phases(label, &points, &tets);
+    }
+}
+
+fn phases(label: &str, points: &[f64], tets: &[[u32; 4]]) {
+    let mesh = TetMesh::new(points, 3, tets).unwrap();
     let opts = Options::default();
-    let n = points.len() / 3;
     let cases: Vec<(&str, Box<dyn Fn()>)> = vec![
-        ("cached topology (Topology::new)", Box::new(|| drop(Topology::new::<Tet>(&tets, n).unwrap()))),
+        ("cached mesh (layout + topology)", Box::new(|| {
+            drop(CachedMesh::<Tet>::new(points.to_vec(), 3, tets.to_vec(), Options::default()).unwrap())
+        })),
         ("kernels, primal", Box::new(|| drop(contributions(&mesh, LaplacianKind::Primal, &opts).unwrap()))),
         ("kernels, dual", Box::new(|| drop(contributions(&mesh, LaplacianKind::Dual, &opts).unwrap()))),
         ("laplacian, primal", Box::new(|| drop(laplacian(&mesh, LaplacianKind::Primal, &opts).unwrap()))),
@@ -28,7 +37,7 @@ fn main() {
             drop(operators(&mesh, LaplacianKind::Dual, MassKind::Circumcentric, &opts).unwrap())
         })),
     ];
-    println!("{} tets, {} threads", tets.len(), rayon::current_num_threads());
+    println!("{label}: {} tets, {} threads", tets.len(), rayon::current_num_threads());
     for (name, f) in &cases {
         let times: Vec<f64> = (0..11)
             .map(|_| {
