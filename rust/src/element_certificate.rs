@@ -15,7 +15,8 @@
 //! pieces at any vertex (`c` is bounded by the largest vertex valence in elements),
 //! `lambda_min(sum P) >= -c tau`: the shift is `tau = tol / c`. This certifies the sum of
 //! the element matrices; the caller accounts for any difference between that sum and a
-//! given matrix. At the first group that cannot be certified the answer is
+//! given matrix. The dense work is bounded by [`WORK_PER_ELEMENT`] per element. At the
+//! first group that cannot be certified (or when the work runs out) the answer is
 //! [`Semidefinite::Undetermined`] (`uncovered: 1`): a failing group does not prove
 //! indefiniteness (the elements beyond it may compensate).
 
@@ -29,6 +30,11 @@ use rayon::prelude::*;
 
 /// Rings of face neighbours a failing element grows before it is given up.
 const RINGS: usize = 6;
+
+/// Dense factorisation work (`size^3 / 3` flops summed over the groups) allowed per
+/// element: the certificate costs `O(m)` whatever the mesh (jittered Kuhn duals need 5 to
+/// 130 per element); past it the answer is undetermined.
+const WORK_PER_ELEMENT: f64 = 50_000.0;
 
 /// Whether `-L = sum_t K_t` is negative semidefinite up to `tol`, from the element edge
 /// weights `weights` (one entry per element of `cells`, local order [`Simplex::EDGES`]) over
@@ -80,6 +86,7 @@ fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[S::EdgeValues], t
     const NONE: u32 = u32::MAX;
     let mut owner = vec![NONE; cells.len()];
     let mut members: Vec<Vec<u32>> = Vec::new();
+    let (mut work, budget) = (0.0, WORK_PER_ELEMENT * cells.len() as f64);
     for &t in &failing {
         opts.cancelled()?;
         if owner[t as usize] != NONE {
@@ -101,7 +108,9 @@ fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[S::EdgeValues], t
             grown.sort_unstable();
             grown.dedup();
             group = grown;
-            if vertex_count::<S>(cells, &group) > MAX_GROUP {
+            let size = vertex_count::<S>(cells, &group);
+            work += (size as f64).powi(3) / 3.0;
+            if size > MAX_GROUP || work > budget {
                 break;
             }
             if passes(&group) {
