@@ -317,6 +317,45 @@ def test_masses_stay_positive_where_the_plain_ones_are():
     assert (m[inner] > 0).all()
 
 
+def test_mass_step_line_search_keeps_the_masses():
+    # the mass step used to take its linearised steps whole and rejected every round here
+    # (7 masses lost); the line search on the true masses keeps them all
+    V, T = tetlap.meshes.weighted_ball(1000, 1.0, seed=1)
+    r = regular_weights(V, T)
+    assert r.regular and r.margin > 0 and r.n_negative_interior_weighted == 0
+    m0 = tetlap.mass(V, T, "circumcentric").diagonal()
+    m = tetlap.mass(V, T, "circumcentric", weights=r.weights).diagonal()
+    np.testing.assert_array_equal(np.flatnonzero((m0 > 0) & (m <= 0)), r.masses_lost)
+    assert len(r.masses_lost) == 0 and len(r.masses_lost_tets) == 0
+
+
+def test_masses_are_cubic_along_a_segment_of_weights(rng):
+    # what the line search of the mass step relies on: power centres are affine in w
+    V, T = tetlap.meshes.weighted_ball(200, 1.0, seed=5)
+    w0, w1 = (rng.uniform(-0.005, 0.005, size=len(V)) for _ in range(2))
+    ts = np.array([0, 1 / 3, 2 / 3, 1])
+    M = np.stack([regular._masses(V, T, w0 + t * (w1 - w0)) for t in ts])
+    C = np.linalg.solve(np.vander(ts, 4, increasing=True), M)
+    for t in (0.1, 0.5, 0.9):
+        np.testing.assert_allclose(np.vander([t], 4, increasing=True)[0] @ C,
+                                   regular._masses(V, T, w0 + t * (w1 - w0)),
+                                   rtol=0, atol=1e-12 * np.abs(M).max())
+
+
+def test_lost_masses_are_explained(rng):
+    V, T = tetlap.meshes.weighted_ball(200, 1.0, seed=5)
+    on_b = tetlap.diagnostics.boundary_vertices(T, len(V))
+    w = rng.uniform(-0.05, 0.05, size=len(V))
+    m0 = tetlap.mass(V, T, "circumcentric").diagonal()
+    m = regular._masses(V, T, w)
+    lost = np.flatnonzero((m0 > 0) & (m <= 0))
+    assert len(lost)
+    tets, note = regular._why_masses_lost(V, T, w, lost, np.zeros(len(T), dtype=bool), on_b)
+    assert len(tets) == len(lost) and f"{len(lost)} positive plain masses" in note
+    for v, t in zip(lost, tets):
+        assert v in T[t]
+
+
 def test_mass_jacobian_matches_finite_differences(rng):
     V, T = tetlap.meshes.weighted_ball(200, 1.0, seed=5)
     w = rng.uniform(-0.005, 0.005, size=len(V))
@@ -372,3 +411,15 @@ def test_corpus_meshes_named_in_the_issue(name):
     else:
         assert len(r.violated_faces) > 0
         assert len(r.violated_faces) <= r.n_violated_plain
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["libigl_decimated_knight.mesh", "simnibs_sphere3.msh"])
+def test_corpus_masses_kept_by_the_line_search(name):
+    # 6 and 27 masses lost before the mass step's line search, 0 with it
+    path = MESH_DIR / name
+    if not path.is_file():
+        pytest.skip(f"real-mesh corpus not found at {MESH_DIR} (set TETLAP_MESHES)")
+    V, T = read_mesh(path)
+    r = regular_weights(V, T, time_limit=300)
+    assert r.regular and len(r.masses_lost) == 0

@@ -318,6 +318,47 @@ def _mass_jacobian(V, T, w, rows: np.ndarray) -> sp.csr_array:
     return J.tocsr()
 
 
+#: A tet counts as a sliver in the report on lost masses when its volume is below this
+#: fraction of the regular tet's with the same RMS edge length.
+SLIVER_QUALITY = 0.05
+
+
+def _why_masses_lost(V, T, w, lost, repaired, on_boundary):
+    """Why the masses of ``lost`` turned non-positive: for each, the tet whose pieces of
+    its cell lost the most volume between ``w = 0`` and ``w`` (the same NumPy kernel as
+    the Jacobian), and a note on those tets: how many are next to a face the weights
+    repair (``repaired``: (m,) bool, tets with a face violated at ``w = 0``) and how many
+    are slivers (volume below :data:`SLIVER_QUALITY` of the regular tet's with the same
+    RMS edge length). Returns (tets (k,), note or None)."""
+    if not len(lost):
+        return np.zeros(0, dtype=np.int64), None
+    is_lost = np.zeros(len(V), dtype=bool)
+    is_lost[lost] = True
+    tets = np.flatnonzero(is_lost[T].any(axis=1))
+    X = V[T[tets]]
+    drop = _cell_volumes(X, np.zeros((len(tets), 4))) - _cell_volumes(X, w[T[tets]])
+    vert = T[tets]
+    t_idx, c_idx = np.nonzero(is_lost[vert])
+    who, how = vert[t_idx, c_idx], drop[t_idx, c_idx]
+    order = np.lexsort((-how, who))                       # per vertex, largest drop first
+    first = order[np.r_[True, who[order][1:] != who[order][:-1]]]
+    culprit = tets[t_idx[first]]                          # in the order of ``lost``
+    P = V[T[culprit]]
+    vol = np.abs(np.einsum("ij,ij->i", P[:, 1] - P[:, 0],
+                           np.cross(P[:, 2] - P[:, 0], P[:, 3] - P[:, 0]))) / 6
+    l2 = np.mean([((P[:, a] - P[:, b]) ** 2).sum(-1) for a, b in _EDGES], axis=0)
+    sliver = 6 * np.sqrt(2) * vol / l2 ** 1.5 < SLIVER_QUALITY
+    where = ("all on the boundary" if on_boundary[lost].all()
+             else f"{int(on_boundary[lost].sum())} on the boundary")
+    note = (f"{len(lost)} positive plain masses turned non-positive ({where}): the tet "
+            "whose pieces of each cell lost most (masses_lost_tets) is next to a face the "
+            f"weights repair for {int(repaired[culprit].sum())} of them, a sliver (volume "
+            f"< {SLIVER_QUALITY:g} x the regular tet's) for {int(sliver.sum())}. Power "
+            "centres move by ~ weight / height, so the signed pieces they cut swing far; "
+            "no weights were found that keep these cells positive and the faces regular "
+            "(not a proof that none exist)")
+    return culprit.astype(np.int64), note
+
 # --------------------------------------------------------------------------------------
 # The result
 # --------------------------------------------------------------------------------------
@@ -358,6 +399,9 @@ class RegularWeights:
         whose weighted one is not (target: none).
     masses_below_floor : (k,) int64, vertices whose weighted mass fell below
         ``mass_floor`` times their positive plain mass (``masses_lost`` included).
+    masses_lost_tets : (k,) int64, for each vertex of ``masses_lost``, the tet whose
+        pieces of its cell lost the most volume from ``w = 0`` to ``weights`` (a note
+        counts those next to a face the weights repair, and the slivers among them).
     seconds : float, wall time.
     notes : list of str, what happened (phases, relaxations, why undecided).
     status : str, one of :data:`STATUSES`: ``"regular"``; ``"not regular"``, *proved*:
@@ -408,13 +452,16 @@ class RegularWeights:
     certificate_residual: float | None = None
     iterations: int = 0
     lp_count: int = 0
+    masses_lost_tets: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def to_dict(self) -> dict:
         """A JSON-ready dict of the scalar fields and counts (arrays summarised)."""
         out = {}
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
-            if f.name in ("weights", "face_margins", "certificate_multipliers"):
+            if f.name in ("weights", "face_margins", "certificate_multipliers",
+                          "masses_lost_tets"):
                 continue
             if isinstance(v, np.ndarray):
                 out[f"n_{f.name}"] = int(len(v))
@@ -716,10 +763,10 @@ def _decide(problem, violated, target, lo, hi, deadline, max_iterations, notes):
     return dict(out, status="undecided")
 
 
-def _mass_rows(V, T, w, l2, m_plain, rows, mass_floor):
-    """The masses of ``rows`` linearised at ``w`` as conditions ``B u >= aim`` in ``u``
-    units, each scaled by the plain mass: (B (k, n) csr_array, aim (k,), wgt (k,))."""
-    m = assembly.mass(V, T, "circumcentric", weights=w, degenerate="skip").diagonal()
+def _mass_rows(V, T, w, l2, m_plain, rows, mass_floor, m):
+    """The masses of ``rows`` linearised at ``w`` (where the masses are ``m``) as
+    conditions ``B u >= aim`` in ``u`` units, each scaled by the plain mass:
+    (B (k, n) csr_array, aim (k,), wgt (k,))."""
     J = _mass_jacobian(V, T, w, rows)                  # d m_rows / d w, (k, n)
     scale = 1.0 / m_plain[rows]
     B = sp.csr_array(sp.diags_array(scale) @ J @ sp.diags_array(l2))
@@ -729,33 +776,78 @@ def _mass_rows(V, T, w, l2, m_plain, rows, mass_floor):
     return B, aim, 1.0 / np.maximum(norms, 1e-300)
 
 
-def _mass_deficit(V, T, w, m_plain, mass_floor):
-    """(vertices whose weighted mass is below ``mass_floor`` times a positive plain mass,
-    the sum of their relative deficits)."""
-    m = assembly.mass(V, T, "circumcentric", weights=w, degenerate="skip").diagonal()
+def _masses(V, T, w) -> np.ndarray:
+    return assembly.mass(V, T, "circumcentric", weights=w, degenerate="skip").diagonal()
+
+
+def _mass_score(m, m_plain, mass_floor):
+    """(masses lost, the sum of the relative deficits below ``mass_floor``) of the masses
+    ``m`` (..., n) against the positive plain ones: compared lexicographically (fewer
+    masses lost first). ``m`` may carry leading axes (the points of a line search)."""
     positive = m_plain > 0
-    low = np.flatnonzero(positive & (m < mass_floor * m_plain))
-    return low, float(np.sum(mass_floor - m[low] / m_plain[low]))
+    rel = m[..., positive] / m_plain[positive]
+    lost = (rel <= 0).sum(axis=-1)
+    deficit = np.maximum(mass_floor - rel, 0.0).sum(axis=-1)
+    return lost, deficit
+
+
+def _mass_low(m, m_plain, mass_floor) -> np.ndarray:
+    """The vertices whose weighted mass is below ``mass_floor`` times a positive plain one."""
+    return np.flatnonzero((m_plain > 0) & (m < mass_floor * m_plain))
+
+
+#: The points of the line search of the mass step: ``t = 2^-k`` (the linearised step may
+#: only be good very near its start) and a uniform grid of [0, 1].
+_LINE_T = np.unique(np.concatenate([2.0 ** -np.arange(1, 13), np.linspace(0, 1, 65)[1:]]))
+#: The cubic in ``t`` of the masses is known from these four points of the segment.
+_CUBIC_T = np.array([0.0, 1 / 3, 2 / 3, 1.0])
+
+
+def _line_search(V, T, w0, w1, m0, m1, m_plain, mass_floor):
+    """The best point ``w0 + t (w1 - w0)``, ``0 < t <= 1``, for the masses (fewest lost,
+    then smallest deficit: :func:`_mass_score`). Power centres are affine in the weights
+    and every flag piece of a cell is a triple product of three of them, so every mass is
+    a cubic polynomial in ``t``: two more assemblies (``t = 1/3, 2/3``; ``m0``, ``m1``
+    are the ends) give all of it, scored on :data:`_LINE_T`. Returns (t, masses there,
+    recomputed by the core: the cubic is only the guide)."""
+    d = w1 - w0
+    M = np.stack([m0, _masses(V, T, w0 + d / 3), _masses(V, T, w0 + 2 * d / 3), m1])
+    C = np.linalg.solve(np.vander(_CUBIC_T, 4, increasing=True), M)        # (4, n)
+    lost, deficit = _mass_score(np.vander(_LINE_T, 4, increasing=True) @ C, m_plain,
+                                mass_floor)
+    t = float(_LINE_T[np.lexsort((deficit, lost))[0]])
+    return t, (m1 if t == 1.0 else _masses(V, T, w0 + t * d))
 
 
 def _repair_masses(problem, V, T, u, l2, m_plain, mass_floor, floor_t, lo, hi, deadline,
-                   notes, rounds: int = 8, iterations: int = 300, radius: float = np.inf):
-    """Keep the weighted masses above ``mass_floor`` times the positive plain ones: the
-    masses below it, linearised at the current weights (exact derivatives by the complex
-    step), join the shortfall as hinge rows, then the faces alone are searched back to
-    half their floors when that broke them (optionally in a trust region
-    ``|u - u_k| <= radius``); ``rounds`` steps of at most ``iterations`` L-BFGS-B
-    iterations each, a step kept only when it lowers the masses' total deficit.
-    Returns u."""
+                   notes, rounds: int = 8, iterations: int = 300):
+    """Keep the weighted masses above ``mass_floor`` times the positive plain ones.
+
+    Each round: the masses below it, linearised at the current weights ``u`` (exact
+    derivatives by the complex step), join the faces' shortfall as hinge rows; L-BFGS-B
+    on that gives ``v``, searched back to half the faces' floors when it broke them. The
+    linearisation only holds near ``u`` (a boundary cell is a signed sum of pieces cut
+    by power centres that move far for small weights), so ``v`` is not taken as it is: a line
+    search on the true masses along ``u -> v`` (:func:`_line_search`) picks the point
+    with the fewest masses lost, then the smallest deficit. The faces need no check
+    there: their margins are affine in the weights, so every point of the segment keeps
+    the floors that both ends meet. A round is kept when it improves on ``u`` (masses
+    lost, then deficit); when it does not, the next one is confined to a tenth of the
+    step (a trust region ``|u' - u| <= radius``). Returns u."""
     aim_faces = floor_t + 0.1 * np.maximum(floor_t, 0.0)
     floor_t = np.minimum(floor_t, floor_t / 2)    # the faces may give up half their floor
     rows = np.zeros(0, dtype=np.int64)
-    low, deficit = _mass_deficit(V, T, u * l2, m_plain, mass_floor)
+    m = _masses(V, T, u * l2)
+    score = _mass_score(m, m_plain, mass_floor)
+    low = _mass_low(m, m_plain, mass_floor)
+    radius, kept = np.inf, False
     for _ in range(rounds):
+        kept = False
         if not len(low) or (deadline is not None and time.perf_counter() > deadline):
             break
         rows = np.union1d(rows, low)
-        B, aim, wgt = _mass_rows(V, T, u * l2, l2, m_plain, rows, mass_floor)
+        B, aim, wgt = _mass_rows(V, T, u * l2, l2, m_plain, rows, mass_floor, m)
+        box_lo, box_hi = np.maximum(lo, u - radius), np.minimum(hi, u + radius)
 
         def fun(v, B=B, aim=aim, wgt=wgt):
             f, grad = problem.shortfall(v, aim_faces)
@@ -766,19 +858,28 @@ def _repair_masses(problem, V, T, u, l2, m_plain, mass_floor, floor_t, lo, hi, d
             return bool((problem.margins(v) >= floor_t).all() and (B @ v >= aim).all()) or (
                 deadline is not None and time.perf_counter() > deadline)
 
-        v, _ = _minimise(fun, u, np.maximum(lo, u - radius), np.minimum(hi, u + radius),
-                         stop, iterations)
+        v, _ = _minimise(fun, u, box_lo, box_hi, stop, iterations)
         if not (problem.margins(v) >= floor_t).all():      # back to the faces' floors
-            v, _ = _minimise(lambda x: problem.shortfall(x, aim_faces), v, lo, hi,
+            v, _ = _minimise(lambda x: problem.shortfall(x, aim_faces), v, box_lo, box_hi,
                              lambda x: bool((problem.margins(x) >= floor_t).all()),
                              iterations)
-        low_v, deficit_v = _mass_deficit(V, T, v * l2, m_plain, mass_floor)
-        if not (problem.margins(v) >= floor_t).all() or deficit_v >= deficit:
-            break
-        u, low, deficit = v, low_v, deficit_v
+        if not (problem.margins(v) >= floor_t).all():     # too far: a shorter step
+            radius = 0.1 * float(np.abs(v - u).max())
+            continue
+        t, m_t = _line_search(V, T, u * l2, v * l2, m, _masses(V, T, v * l2), m_plain,
+                              mass_floor)
+        u_t = u + t * (v - u)
+        score_t = _mass_score(m_t, m_plain, mass_floor)
+        if not ((problem.margins(u_t) >= floor_t).all() and score_t < score):
+            radius = 0.1 * float(np.abs(v - u).max())
+            continue
+        u, m, score, kept = u_t, m_t, score_t, True
+        low = _mass_low(m, m_plain, mass_floor)
     if len(low):
         notes.append(f"{len(low)} weighted masses stay below {mass_floor:g} x their plain "
-                     "value (no weights found that keep the faces regular and lift them)")
+                     "value (no weights found that keep the faces regular and lift them"
+                     + (f"; the mass step stopped after {rounds} rounds, the last still "
+                        "improving" if kept else "") + ")")
     return u
 
 
@@ -804,7 +905,9 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
     mass_floor : float in [0, 1) or None, keep every weighted circumcentric mass above
         ``mass_floor`` times its plain value where that is positive (0: only keep it
         positive). A soft constraint: the vertices where it fails are reported. None:
-        skip that step (masses are then only reported).
+        skip that step (masses are then only reported): for a Laplacian alone, as the
+        step moves weights away from the faces' smallest ones and can cost accuracy
+        (EXPERIMENTS.md section 7: the Dirichlet error on strongly non-Delaunay shells).
     max_weight : bound on ``|w_i| / l_i^2`` (``l_i`` the vertex's mean edge length) in
         the search. The proofs of "not regular" do not depend on it.
     rtol : the round-off tolerance of the regularity test (:data:`REGULAR_RTOL`).
@@ -849,8 +952,17 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
        ``mass_floor`` times a positive plain mass get a hinge row on their mass,
        linearised at the current weights (exact derivatives by the complex step of a NumPy
        copy of the core's kernel), then the faces alone back to their floors; up to 8
-       rounds of 300 iterations, each kept when it lowers the total deficit, the faces kept at half their floors at
-       least (``margin_floor`` reports the floor before that).
+       rounds of 300 iterations, the faces kept at half their floors at least
+       (``margin_floor`` reports the floor before that). The linearisation only holds
+       near the current weights (boundary cells are signed sums of pieces cut by power
+       centres that move far for small weights), so each round ends with a line
+       search on the true masses along the step: every mass is a cubic polynomial of
+       the weights on a segment (power centres are affine in them), known from two more
+       assemblies; the point with the fewest masses lost, then the smallest deficit, is
+       kept if it improves on the round's start (the faces' margins, affine, keep their
+       floors on the whole segment); else the next round gets a trust region of a tenth
+       of the step. Where masses are still lost, ``masses_lost_tets`` and a note say
+       which tets took them.
 
     Near-flat tets (hull slivers) may be refused by the core's accuracy guard with the
     weights found (``DegenerateElementError``: weights far larger than their squared
@@ -909,8 +1021,14 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
         notes.append("Delaunay: the plain dual (w = 0) is already the answer")
     n_neg_w, m_weighted = ((n_neg_plain, m_plain) if not w.any()
                            else _dual(V, T, w, on_boundary)[:2])
+    repaired = np.zeros(len(T), dtype=bool)
+    repaired[interior[cond.face[violated0]][:, [0, 2]].ravel()] = True
+    lost = np.flatnonzero((m_plain > 0) & (m_weighted <= 0))
+    culprits, note = _why_masses_lost(V, T, w, lost, repaired, on_boundary)
+    if note is not None:
+        notes.append(note)
     return _result(cond, w, outcome, violated0, rtol, target_margin, mass_floor,
-                   (n_neg_plain, n_neg_w), (m_plain, m_weighted), notes, start)
+                   (n_neg_plain, n_neg_w), (m_plain, m_weighted), notes, start, culprits)
 
 
 def _search_weights(V, T, cond, on_boundary, violated0, m_plain, deadline, target_margin,
@@ -962,7 +1080,7 @@ def _certificate_of(cond, outcome):
 
 
 def _result(cond, w, outcome, violated0, rtol, target_margin, mass_floor, negatives,
-            masses, notes, start) -> RegularWeights:
+            masses, notes, start, culprits) -> RegularWeights:
     """The verdict (the margin test on ``w``, else the certificate) and the report."""
     g = cond.margins(w)
     bad = np.zeros(cond.n_faces, dtype=bool)
@@ -1003,6 +1121,7 @@ def _result(cond, w, outcome, violated0, rtol, target_margin, mass_floor, negati
         masses_lost=np.flatnonzero(positive & (m_weighted <= 0)).astype(np.int64),
         masses_below_floor=np.flatnonzero(
             positive & (m_weighted < (mass_floor or 0.0) * m_plain)).astype(np.int64),
+        masses_lost_tets=culprits,
         seconds=time.perf_counter() - start,
         notes=notes,
         status=status,
