@@ -33,13 +33,10 @@ try:
 except ImportError as e:  # pragma: no cover - exercised only without the extra
     raise ImportError("tetlap.jax needs jax: pip install 'tetlap[jax]'") from e
 
-from . import _arrays, assembly, diagnostics
-from .derivatives import vjp
+from . import _adapters, _arrays, diagnostics
 from .errors import OptionError
 
 __all__ = ["edges", "operators", "edge_weights", "mass", "laplacian"]
-
-_LUMPED = ("barycentric", "circumcentric")
 
 
 def edges(T) -> np.ndarray:
@@ -48,46 +45,24 @@ def edges(T) -> np.ndarray:
     return diagnostics.mesh_edges(_arrays.elements(T, 4))
 
 
-def _upper(L) -> np.ndarray:
-    """The strictly upper entries of a canonical CSR array, in CSR order."""
-    rows = np.repeat(np.arange(L.shape[0]), np.diff(L.indptr))
-    return L.data[L.indices > rows]
-
-
 def _function(T, kind, mass_kind, weighted, opts):
     """The custom_vjp function ``(V, omega) -> (w, m)`` of one mesh and option set."""
+    _adapters.check_mass(mass_kind)
     T = _arrays.elements(T, 4)
     edges_ = diagnostics.mesh_edges(T)
     n_edges = len(edges_)
-    want_lap, want_mass = kind is not None, mass_kind is not None
-    if want_mass and mass_kind not in _LUMPED:
-        raise OptionError(f"the adapters give lumped masses: mass must be \"barycentric\" or "
-                          f"\"circumcentric\", got {mass_kind!r}")
 
     def host_forward(V, omega):
-        V = np.asarray(V, dtype=np.float64)
+        V64 = np.asarray(V, dtype=np.float64)
         w = np.asarray(omega, dtype=np.float64) if weighted else None
-        n = V.shape[0]
-        if want_lap and want_mass:
-            L, M = assembly.operators(V, T, kind, mass_kind, weights=w, **opts)
-        elif want_lap:
-            L, M = assembly.laplacian(V, T, kind, weights=w, **opts), None
-        else:
-            L, M = None, assembly.mass(V, T, mass_kind, weights=w, **opts)
-        we = _upper(L) if L is not None else np.zeros(n_edges)
-        m = M.diagonal() if M is not None else np.zeros(n)
+        we, m = _adapters.forward(V64, T, kind, mass_kind, w, n_edges, opts)
         return we.astype(V.dtype), m.astype(V.dtype)
 
     def host_backward(V, omega, dw, dm):
-        V64 = np.asarray(V, dtype=np.float64)
-        w = np.asarray(omega, dtype=np.float64) if weighted else None
-        g = vjp(V64, T, kind if want_lap else "primal",
-                mass_kind if want_mass else "barycentric",
-                dL=(edges_, np.asarray(dw, dtype=np.float64)) if want_lap else None,
-                dM=np.asarray(dm, dtype=np.float64) if want_mass else None,
-                weights=w, **opts)
-        dom = g.dweights if g.dweights is not None else np.zeros(V64.shape[0])
-        return g.dV.astype(np.asarray(V).dtype), dom.astype(np.asarray(omega).dtype)
+        f64 = lambda x: np.asarray(x, dtype=np.float64)  # noqa: E731
+        dV, dom = _adapters.backward(f64(V), T, edges_, kind, mass_kind,
+                                     f64(omega) if weighted else None, f64(dw), f64(dm), opts)
+        return dV.astype(np.asarray(V).dtype), dom.astype(np.asarray(omega).dtype)
 
     def shapes(V):
         return (jax.ShapeDtypeStruct((n_edges,), V.dtype),

@@ -28,13 +28,10 @@ try:
 except ImportError as e:  # pragma: no cover - exercised only without the extra
     raise ImportError("tetlap.torch needs torch: pip install 'tetlap[torch]'") from e
 
-from . import _arrays, assembly, diagnostics
-from .derivatives import vjp
+from . import _adapters, _arrays, diagnostics
 from .errors import OptionError
 
 __all__ = ["edges", "operators", "edge_weights", "mass", "laplacian"]
-
-_LUMPED = ("barycentric", "circumcentric")
 
 
 def edges(T) -> np.ndarray:
@@ -52,22 +49,9 @@ class _Operators(torch.autograd.Function):
 
     @staticmethod
     def forward(ctx, V, omega, spec):
-        T, kind, mass_kind, weighted, opts = spec
-        V64 = _numpy(V)
-        w = _numpy(omega) if weighted else None
-        n = V64.shape[0]
-        if kind is not None and mass_kind is not None:
-            L, M = assembly.operators(V64, T, kind, mass_kind, weights=w, **opts)
-        elif kind is not None:
-            L, M = assembly.laplacian(V64, T, kind, weights=w, **opts), None
-        else:
-            L, M = None, assembly.mass(V64, T, mass_kind, weights=w, **opts)
-        if L is not None:
-            rows = np.repeat(np.arange(n), np.diff(L.indptr))
-            we = L.data[L.indices > rows]
-        else:
-            we = np.zeros(len(diagnostics.mesh_edges(T)))
-        m = M.diagonal() if M is not None else np.zeros(n)
+        T, edges_, kind, mass_kind, weighted, opts = spec
+        we, m = _adapters.forward(_numpy(V), T, kind, mass_kind,
+                                  _numpy(omega) if weighted else None, len(edges_), opts)
         ctx.save_for_backward(V, omega)
         ctx.spec = spec
         as_out = {"dtype": V.dtype, "device": V.device}
@@ -76,23 +60,17 @@ class _Operators(torch.autograd.Function):
     @staticmethod
     def backward(ctx, dw, dm):
         V, omega = ctx.saved_tensors
-        T, kind, mass_kind, weighted, opts = ctx.spec
-        E = diagnostics.mesh_edges(T)
-        g = vjp(_numpy(V), T, kind if kind is not None else "primal",
-                mass_kind if mass_kind is not None else "barycentric",
-                dL=(E, _numpy(dw)) if kind is not None else None,
-                dM=_numpy(dm) if mass_kind is not None else None,
-                weights=_numpy(omega) if weighted else None, **opts)
-        dV = torch.as_tensor(g.dV, dtype=V.dtype, device=V.device)
-        dom = g.dweights if g.dweights is not None else np.zeros(V.shape[0])
+        T, edges_, kind, mass_kind, weighted, opts = ctx.spec
+        dV, dom = _adapters.backward(_numpy(V), T, edges_, kind, mass_kind,
+                                     _numpy(omega) if weighted else None,
+                                     _numpy(dw), _numpy(dm), opts)
+        dV = torch.as_tensor(dV, dtype=V.dtype, device=V.device)
         domega = torch.as_tensor(dom, dtype=omega.dtype, device=omega.device)
         return dV, (domega if weighted else None), None
 
 
 def _call(V, T, kind, mass_kind, weights, boundary, degenerate, threads):
-    if mass_kind is not None and mass_kind not in _LUMPED:
-        raise OptionError(f"the adapters give lumped masses: mass must be \"barycentric\" or "
-                          f"\"circumcentric\", got {mass_kind!r}")
+    _adapters.check_mass(mass_kind)
     V = torch.as_tensor(V)
     if V.ndim != 2:
         raise OptionError(f"V must have shape (n, d), got {tuple(V.shape)}")
@@ -100,7 +78,8 @@ def _call(V, T, kind, mass_kind, weights, boundary, degenerate, threads):
     omega = (torch.as_tensor(weights, dtype=V.dtype, device=V.device) if weighted
              else torch.zeros(V.shape[0], dtype=V.dtype, device=V.device))
     opts = {"boundary": boundary, "degenerate": degenerate, "threads": threads}
-    spec = (_arrays.elements(T, 4), kind, mass_kind, weighted, opts)
+    T = _arrays.elements(T, 4)
+    spec = (T, diagnostics.mesh_edges(T), kind, mass_kind, weighted, opts)
     return _Operators.apply(V, omega, spec)
 
 
