@@ -57,6 +57,14 @@ def read_mesh(path: pathlib.Path):
     return V.copy(), T.copy()
 
 
+def corpus_mesh(name: str):
+    """(V, T) of the corpus file ``name``; skips when the corpus folder is missing (a
+    user's clone), fails when the folder is there without the file (CI has it)."""
+    if not MESH_DIR.is_dir():
+        pytest.skip(f"real-mesh corpus not found at {MESH_DIR} (set TETLAP_MESHES)")
+    return read_mesh(MESH_DIR / name)
+
+
 @pytest.fixture(params=real_mesh_params())
 def real_mesh(request):
     """(name, V, T) for every mesh of the corpus."""

@@ -14,7 +14,7 @@ import tetlap.regular as regular
 from tetlap.diagnostics import interior_faces, non_delaunay_faces
 from tetlap.regular import face_margins, regular_weights, summary
 
-from conftest import MESH_DIR, read_mesh
+from conftest import corpus_mesh
 
 
 def power_center(X, w):
@@ -180,10 +180,7 @@ def test_a_hand_built_non_regular_mesh_is_reported(rng):
 
 
 def test_a_corpus_mesh_named_in_the_issue_is_proved_non_regular(rng):
-    path = MESH_DIR / "libigl_octopus_low.mesh"
-    if not path.is_file():
-        pytest.skip(f"real-mesh corpus not found at {MESH_DIR} (set TETLAP_MESHES)")
-    V, T = read_mesh(path)
+    V, T = corpus_mesh("libigl_octopus_low.mesh")
     r = regular_weights(V, T, time_limit=60)
     assert r.status == "not regular" and r.n_folded == 0
     assert 0 < len(r.certificate_faces) < r.n_violated_plain
@@ -394,10 +391,7 @@ CORPUS = {"flipfree_fish_blub.mesh": True, "sofa_raptor_8418.vtu": True,
 @pytest.mark.slow
 @pytest.mark.parametrize("name", list(CORPUS))
 def test_corpus_meshes_named_in_the_issue(name):
-    path = MESH_DIR / name
-    if not path.is_file():
-        pytest.skip(f"real-mesh corpus not found at {MESH_DIR} (set TETLAP_MESHES)")
-    V, T = read_mesh(path)
+    V, T = corpus_mesh(name)
     r = regular_weights(V, T, time_limit=300)
     assert r.regular == CORPUS[name]
     if r.regular:
@@ -417,9 +411,6 @@ def test_corpus_meshes_named_in_the_issue(name):
 @pytest.mark.parametrize("name", ["libigl_decimated_knight.mesh", "simnibs_sphere3.msh"])
 def test_corpus_masses_kept_by_the_line_search(name):
     # 6 and 27 masses lost before the mass step's line search, 0 with it
-    path = MESH_DIR / name
-    if not path.is_file():
-        pytest.skip(f"real-mesh corpus not found at {MESH_DIR} (set TETLAP_MESHES)")
-    V, T = read_mesh(path)
+    V, T = corpus_mesh(name)
     r = regular_weights(V, T, time_limit=300)
     assert r.regular and len(r.masses_lost) == 0
