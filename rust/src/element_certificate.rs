@@ -71,11 +71,11 @@ fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[S::EdgeValues], t
         }
     }
     let tau = tol / valence.iter().copied().max().unwrap_or(1).max(1) as f64;
-    let passes = |elements: &[u32]| group_passes::<S>(cells, weights, elements, tau);
+    let passes = |elements: &[u32], vertices: &[u32]| group_passes::<S>(cells, weights, elements, vertices, tau);
     let failing: Vec<u32> = (0..cells.len() as u32)
         .into_par_iter()
         .with_min_len(4096)
-        .filter(|&t| !passes(&[t]))
+        .filter(|&t| !passes(&[t], &group_vertices::<S>(cells, &[t])))
         .collect();
     opts.cancelled()?;
     if failing.is_empty() {
@@ -108,12 +108,12 @@ fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[S::EdgeValues], t
             grown.sort_unstable();
             grown.dedup();
             group = grown;
-            let size = vertex_count::<S>(cells, &group);
-            work += (size as f64).powi(3) / 3.0;
-            if size > MAX_GROUP || work > budget {
+            let vertices = group_vertices::<S>(cells, &group);
+            work += (vertices.len() as f64).powi(3) / 3.0;
+            if vertices.len() > MAX_GROUP || work > budget {
                 break;
             }
-            if passes(&group) {
+            if passes(&group, &vertices) {
                 certified = true;
                 break;
             }
@@ -152,19 +152,17 @@ fn face_neighbours<S: Simplex>(cells: &[S::Cell], n: usize, opts: &Options) -> R
     Ok(crate::Incidence { offsets, items })
 }
 
-fn vertex_count<S: Simplex>(cells: &[S::Cell], elements: &[u32]) -> usize {
+/// The sorted vertices of `elements`.
+fn group_vertices<S: Simplex>(cells: &[S::Cell], elements: &[u32]) -> Vec<u32> {
     let mut vertices: Vec<u32> = elements.iter().flat_map(|&e| cells[e as usize].as_ref().iter().copied()).collect();
     vertices.sort_unstable();
     vertices.dedup();
-    vertices.len()
+    vertices
 }
 
-/// Whether the summed element matrices of `elements` plus `tau I` (on their vertices) have
-/// a Cholesky factorisation.
-fn group_passes<S: Simplex>(cells: &[S::Cell], weights: &[S::EdgeValues], elements: &[u32], tau: f64) -> bool {
-    let mut vertices: Vec<u32> = elements.iter().flat_map(|&e| cells[e as usize].as_ref().iter().copied()).collect();
-    vertices.sort_unstable();
-    vertices.dedup();
+/// Whether the summed element matrices of `elements` plus `tau I` on their sorted
+/// `vertices` have a Cholesky factorisation.
+fn group_passes<S: Simplex>(cells: &[S::Cell], weights: &[S::EdgeValues], elements: &[u32], vertices: &[u32], tau: f64) -> bool {
     let size = vertices.len();
     let mut a = vec![0.0; size * size];
     for &e in elements {
@@ -207,7 +205,7 @@ mod tests {
         let cells = [[1, 2, 0, 3], [1, 2, 3, 4]];
         let w = [weights(-1.5, 1.0), weights(5.0, 1.0)];
         let opts = Options::default();
-        assert!(!group_passes::<Tet>(&cells, &w, &[0], 1e-12));
+        assert!(!group_passes::<Tet>(&cells, &w, &[0], &group_vertices::<Tet>(&cells, &[0]), 1e-12));
         let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &w, 1e-12, &opts).unwrap();
         assert_eq!(answer, Semidefinite::ElementCertificate { groups: 1, largest: 2 });
     }
