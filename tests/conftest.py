@@ -18,7 +18,9 @@ for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
 import numpy as np  # noqa: E402
-import pytest
+import pytest  # noqa: E402
+
+import tetlap  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 MESH_DIR = pathlib.Path(os.environ.get("TETLAP_MESHES", ROOT.parent / "shared" / "data" / "meshes"))
@@ -55,6 +57,22 @@ def read_mesh(path: pathlib.Path):
             _cache[path] = tetlap.io.read(path)
     V, T = _cache[path]
     return V.copy(), T.copy()
+
+
+# Small generated meshes shared by the assembly and invariant tests.
+
+
+def jittered_cube():
+    return tetlap.meshes.cube(4, jitter=0.2, seed=3)
+
+
+def random_ball():
+    return tetlap.meshes.ball(600, seed=7)
+
+
+def non_delaunay():
+    """A jittered cube with some interior vertices pushed hard: many non-Delaunay tets."""
+    return tetlap.meshes.cube(4, jitter=0.24, seed=11)
 
 
 def corpus_mesh(name: str):

@@ -11,26 +11,13 @@ import pytest
 import scipy.sparse as sp
 
 import tetlap
+from conftest import jittered_cube, non_delaunay, random_ball
 from tetlap.benchmark import shuffled
 
 KINDS = ["primal", "dual", 0.3]
 MASSES = ["barycentric", "circumcentric", "fem"]
 LOCAL_EDGES = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
 CORNER_V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
-
-
-def jittered_cube():
-    return tetlap.meshes.cube(4, jitter=0.2, seed=3)
-
-
-def random_ball():
-    return tetlap.meshes.ball(600, seed=7)
-
-
-def non_delaunay():
-    """A jittered cube with some interior vertices pushed hard: many non-Delaunay tets."""
-    V, T = tetlap.meshes.cube(4, jitter=0.24, seed=11)
-    return V, T
 
 
 def shuffled_ball():

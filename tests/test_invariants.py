@@ -9,23 +9,10 @@ from hypothesis import strategies as st
 from scipy.spatial import Delaunay
 
 import tetlap
+from conftest import jittered_cube, non_delaunay, random_ball
 from tetlap.diagnostics import boundary_faces, interior_vertices, signed_volumes
 
 KINDS = ["primal", "dual", 0.3]
-
-
-def jittered_cube():
-    return tetlap.meshes.cube(4, jitter=0.2, seed=3)
-
-
-def random_ball():
-    return tetlap.meshes.ball(600, seed=7)
-
-
-def non_delaunay():
-    """A jittered cube with some interior vertices pushed hard: many non-Delaunay tets."""
-    V, T = tetlap.meshes.cube(4, jitter=0.24, seed=11)
-    return V, T
 
 
 def weighted_ball():
