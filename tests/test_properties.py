@@ -198,3 +198,17 @@ def test_the_element_certificate_refuses_weights_of_the_wrong_shape():
     V, T = tetlap.meshes.cube(2)
     with pytest.raises(tetlap.ShapeError):
         _core.element_certificate(T, len(V), np.zeros((len(T), 3)), 1e-9)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["primal", "dual"])
+def test_the_element_certificate_never_contradicts_dense_eigenvalues_on_the_corpus(real_mesh, kind):
+    name, V, T = real_mesh
+    W = tetlap.tet_contributions(V, T, kind, degenerate="skip")
+    L = tetlap.laplacian(V, T, kind, degenerate="skip")
+    tol = properties.NSD_RTOL * abs(L).max()
+    verdict, _, _ = _core.element_certificate(T, len(V), W, tol)
+    if kind == "primal":
+        assert verdict is True, name  # a sum of Gram matrices
+    if verdict and len(V) <= 3000:
+        assert np.linalg.eigvalsh((-(L + L.T) / 2).toarray())[0] >= -tol, name
