@@ -4,7 +4,7 @@
 //! grids of the unit cube with jittered interior vertices (6 k^3 tets).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use tetlap::{LaplacianKind, MassKind, Options, TetMesh};
+use tetlap::{LaplacianKind, MassKind, Options, TetView};
 
 #[path = "grid.rs"]
 mod grid;
@@ -24,7 +24,7 @@ fn bench(c: &mut Criterion) {
         let mut group = c.benchmark_group(name);
         group.sample_size(10);
         for (points, tets) in &meshes {
-            let mesh = TetMesh::new(points, 3, tets).unwrap();
+            let mesh = TetView::new(points, 3, tets).unwrap();
             group.throughput(Throughput::Elements(tets.len() as u64));
             group.bench_with_input(BenchmarkId::from_parameter(tets.len()), &mesh, |b, mesh| {
                 b.iter(|| match (lap, mass) {

@@ -4,7 +4,7 @@
 //! own order and scrambled).
 
 use std::time::Instant;
-use tetlap::{contributions, laplacian, operators, CachedMesh, LaplacianKind, MassKind, Options, Tet, TetMesh};
+use tetlap::{contributions, laplacian, operators, CachedMesh, LaplacianKind, MassKind, Options, Tet, TetView};
 
 #[path = "grid.rs"]
 mod grid;
@@ -23,7 +23,7 @@ fn main() {
 }
 
 fn phases(label: &str, points: &[f64], tets: &[[u32; 4]]) {
-    let mesh = TetMesh::new(points, 3, tets).unwrap();
+    let mesh = TetView::new(points, 3, tets).unwrap();
     let opts = Options::default();
     let cases: Vec<(&str, Box<dyn Fn()>)> = vec![
         ("cached mesh (layout + topology)", Box::new(|| {

@@ -6,7 +6,7 @@ use std::fmt;
 
 /// Everything that can go wrong, each naming the element, vertex or value at fault.
 ///
-/// The core validates its input once ([`crate::Mesh::new`]) and never panics on user
+/// The core validates its input once ([`crate::MeshView::new`]) and never panics on user
 /// data: every problem surfaces as one of these variants.
 #[derive(Debug, Clone, PartialEq)]
 #[allow(missing_docs)] // the fields are named for what they hold
@@ -61,7 +61,7 @@ pub enum Error {
 /// Options that only some kinds of element support (see [`Error::Unsupported`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Feature {
-    /// Vertex weights ([`crate::Mesh::with_weights`]): tets only.
+    /// Vertex weights ([`crate::MeshView::with_vertex_weights`]): tets only.
     VertexWeights,
     /// [`crate::Boundary::Barycentric`]: tets only.
     BarycentricBoundary,
@@ -125,7 +125,7 @@ impl fmt::Display for Error {
             Error::ThreadPool { reason } => write!(f, "could not start worker threads: {reason}"),
             Error::Unsupported { option, element } => {
                 let option = match option {
-                    Feature::VertexWeights => "vertex weights (Mesh::with_weights)",
+                    Feature::VertexWeights => "vertex weights (MeshView::with_vertex_weights)",
                     Feature::BarycentricBoundary => "Boundary::Barycentric",
                 };
                 write!(f, "{option} is not supported for {element} meshes")

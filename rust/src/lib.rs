@@ -10,7 +10,7 @@
 //! * barycentric, circumcentric (signed dual-cell volumes) and consistent P1 mass matrices.
 //!
 //! Tets ([`Tet`]) and triangles ([`Tri`], where primal and dual coincide) go through the
-//! same API: every function is generic over the [`Simplex`] kind of a [`Mesh`].
+//! same API: every function is generic over the [`Simplex`] kind of a [`MeshView`].
 //!
 //! ## Conventions
 //! * Points: `n x dim` row-major `f64`, `dim >= 3` for tets, `dim >= 2` for triangles
@@ -24,11 +24,11 @@
 //!
 //! ## Example
 //! ```
-//! use tetlap::{operators, LaplacianKind, Mass, MassKind, Options, TetMesh};
+//! use tetlap::{operators, LaplacianKind, Mass, MassKind, Options, TetView};
 //! // two tets sharing the face (1, 2, 3), the second one negatively oriented
 //! let points = [0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.];
 //! let tets = [[0, 1, 2, 3], [4, 2, 1, 3]];
-//! let mesh = TetMesh::new(&points, 3, &tets)?;
+//! let mesh = TetView::new(&points, 3, &tets)?;
 //! let (l, m) = operators(&mesh, LaplacianKind::Dual, MassKind::Circumcentric, &Options::default())?;
 //! assert_eq!(l.n, 5);
 //! let row_sum: f64 = (0..5).map(|j| l.get(1, j)).sum();
@@ -39,54 +39,44 @@
 //! ```
 //!
 //! ## Layout
-//! [`mod@local`] holds the kernels, pure functions of one element; [`Simplex`] ties them to
-//! an element kind; the drivers (validation in [`Mesh`], the per-element pass, the row
-//! layout in [`Topology`], the scatter) are written once for every kind. [`vjp`]
-//! differentiates the operators of a tet mesh with respect to its points and vertex weights
-//! ([`mod@derivatives`]).
+//! The crate is built in layers; a module uses only the layers below it (checked by the
+//! test `rust/tests/layers.rs`):
+//!
+//! 1. [`error`](Error), options and threads ([`Options`], [`Options::install`]), the
+//!    sparse outputs ([`Csr`], [`Coo`], [`Mass`]);
+//! 2. [`mod@element`]: kernels, pure functions of one element, and the accuracy rule;
+//!    [`Simplex`] ties them to an element kind;
+//! 3. the validated mesh view, [`MeshView`];
+//! 4. [`mod@topology`]: what the elements alone say (grouping, faces);
+//! 5. [`mod@assembly`]: the drivers (internal order, pattern, per-element pass, scatter,
+//!    [`CachedMesh`], derivatives: [`vjp`], [`mod@derivatives`]);
+//! 6. [`mod@analysis`]: checks and certificates of an operator on its mesh.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-mod assemble;
-mod cached;
-mod check;
-mod csr;
-mod definite;
-mod element_certificate;
-pub mod derivatives;
-mod element;
 mod error;
-mod faces;
-mod geometry;
-mod group;
-mod layout;
-pub mod local;
-mod mesh;
-mod operators;
+mod threads;
 mod options;
-mod parallel;
-mod pass;
-mod quality;
-mod simplex;
-mod topology;
+mod sparse;
+pub mod element;
+mod mesh;
+pub mod topology;
+pub mod assembly;
+pub mod analysis;
 
-pub use cached::{CachedMesh, Update};
-pub use check::{check_operator, OperatorCheck};
-pub use csr::{Coo, Csr, Mass};
-pub use definite::{negative_semidefinite, Semidefinite, MAX_GROUP};
-pub use element_certificate::negative_semidefinite_by_elements;
-pub use derivatives::{
-    vjp, Columns, Cotangents, CsrRef, LaplacianCotangent, MassCotangent, MeshGradient,
+pub use analysis::{
+    check_operator, negative_semidefinite, negative_semidefinite_by_elements, non_delaunay_faces, quality,
+    OperatorCheck, Semidefinite, MAX_GROUP,
 };
+pub use assembly::vjp as derivatives;
+pub use assembly::vjp::{vjp, Columns, Cotangents, LaplacianCotangent, MassCotangent, MeshGradient};
+pub use assembly::{contributions, edge_weights, laplacian, mass, operators, triplets, CachedMesh, Topology, Update};
+pub use element::tet::{inside_circumsphere, tet_quality, TetQuality, DELAUNAY_RTOL};
+pub use element::{local_tet, local_tri, LocalTet, LocalTri, Simplex, Tet, Tri, Values};
 pub use error::{Error, Feature, Result};
-pub use geometry::{local_tet, local_tri, LocalTet, LocalTri};
-pub use mesh::{cells_from_i64, Mesh, TetMesh, TriMesh, MAX_VERTICES};
-pub use operators::{contributions, edge_weights, laplacian, mass, operators, triplets, upper_triangle};
+pub use mesh::{cells_from_i64, MeshView, TetView, TriView, MAX_VERTICES};
 pub use options::{Boundary, Cancel, Degenerate, LaplacianKind, MassKind, Options};
-pub use parallel::max_threads;
-pub use quality::{inside_circumsphere, non_delaunay_faces, quality, tet_quality, TetQuality, DELAUNAY_RTOL};
-pub use simplex::{Simplex, Tet, Tri, Values};
-pub use faces::{duplicate_elements, edges, faces, Faces};
-pub use group::Incidence;
-pub use topology::{boundary_elements, Topology};
+pub use sparse::{Coo, Csr, CsrRef, Mass};
+pub use threads::max_threads;
+pub use topology::{boundary_elements, duplicate_elements, edges, faces, Faces, Incidence};

@@ -1,7 +1,7 @@
 //! Validated, borrowed view of a simplicial mesh: the one place where input is checked.
 
 use crate::error::{Error, Feature, Result};
-use crate::simplex::{Simplex, Tet, Tri};
+use crate::element::{Simplex, Tet, Tri};
 use rayon::prelude::*;
 
 /// Largest vertex count: indices are `u32` in the core and `i32` in the CSR output.
@@ -21,37 +21,37 @@ pub const MAX_VERTICES: usize = i32::MAX as usize;
 ///
 /// ```
 /// let points = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-/// let mesh = tetlap::TetMesh::new(&points, 3, &[[0, 1, 2, 3]]).unwrap();
+/// let mesh = tetlap::TetView::new(&points, 3, &[[0, 1, 2, 3]]).unwrap();
 /// assert_eq!((mesh.n_vertices(), mesh.n_elements()), (4, 1));
-/// assert!(tetlap::TetMesh::new(&points, 3, &[[0, 1, 2, 4]]).is_err());
+/// assert!(tetlap::TetView::new(&points, 3, &[[0, 1, 2, 4]]).is_err());
 /// ```
 #[derive(Debug, Clone, Copy)]
-pub struct Mesh<'a, S: Simplex> {
+pub struct MeshView<'a, S: Simplex> {
     points: &'a [f64],
     dim: usize,
     cells: &'a [S::Cell],
-    weights: Option<&'a [f64]>,
+    vertex_weights: Option<&'a [f64]>,
 }
 
 /// A tetrahedral mesh.
-pub type TetMesh<'a> = Mesh<'a, Tet>;
+pub type TetView<'a> = MeshView<'a, Tet>;
 
 /// A triangle mesh.
-pub type TriMesh<'a> = Mesh<'a, Tri>;
+pub type TriView<'a> = MeshView<'a, Tri>;
 
-impl<'a, S: Simplex> Mesh<'a, S> {
+impl<'a, S: Simplex> MeshView<'a, S> {
     /// Checks the input and returns the view, or the first problem found.
     pub fn new(points: &'a [f64], dim: usize, cells: &'a [S::Cell]) -> Result<Self> {
         let n = check_points(points, dim, S::MIN_DIM)?;
         check_cells::<S>(cells, n)?;
-        Ok(Mesh { points, dim, cells, weights: None })
+        Ok(MeshView { points, dim, cells, vertex_weights: None })
     }
 
     /// The same mesh with vertex weights (one finite real per vertex, in squared length
     /// units): the dual Laplacian and circumcentric mass then use weighted circumcenters
     /// (the orthogonal dual of a regular triangulation, a power diagram). Zero weights give
     /// the plain circumcentric dual. Tets only.
-    pub fn with_weights(self, weights: &'a [f64]) -> Result<Self> {
+    pub fn with_vertex_weights(self, weights: &'a [f64]) -> Result<Self> {
         if !S::WEIGHTED_DUAL {
             return Err(Error::Unsupported { option: Feature::VertexWeights, element: S::NAME });
         }
@@ -67,7 +67,7 @@ impl<'a, S: Simplex> Mesh<'a, S> {
         if let Some(i) = weights.iter().position(|w| !w.is_finite()) {
             return Err(Error::NonFiniteWeight { vertex: i, value: weights[i] });
         }
-        Ok(Mesh { weights: Some(weights), ..self })
+        Ok(MeshView { vertex_weights: Some(weights), ..self })
     }
 
     /// A view of input that was checked before (same cells, new finite coordinates).
@@ -75,14 +75,14 @@ impl<'a, S: Simplex> Mesh<'a, S> {
         points: &'a [f64],
         dim: usize,
         cells: &'a [S::Cell],
-        weights: Option<&'a [f64]>,
+        vertex_weights: Option<&'a [f64]>,
     ) -> Self {
-        Mesh { points, dim, cells, weights }
+        MeshView { points, dim, cells, vertex_weights }
     }
 
     /// The vertex weights, if any.
-    pub fn weights(&self) -> Option<&'a [f64]> {
-        self.weights
+    pub fn vertex_weights(&self) -> Option<&'a [f64]> {
+        self.vertex_weights
     }
 
     /// Number of vertices `n`.
@@ -134,7 +134,7 @@ pub(crate) fn check_points(points: &[f64], dim: usize, min_dim: usize) -> Result
     if n > MAX_VERTICES {
         return Err(Error::TooManyVertices { n_vertices: n, max: MAX_VERTICES });
     }
-    if let Some(k) = crate::parallel::position_first(points, |_, x| !x.is_finite()) {
+    if let Some(k) = crate::threads::position_first(points, |_, x| !x.is_finite()) {
         return Err(Error::NonFiniteCoordinate {
             vertex: k / dim,
             coordinate: k % dim,
@@ -171,7 +171,7 @@ fn check_cells<S: Simplex>(cells: &[S::Cell], n: usize) -> Result<()> {
         None
     };
     // the first bad element, whatever the scheduling
-    match crate::parallel::position_first(cells, |t, c| problem(t, c).is_some()) {
+    match crate::threads::position_first(cells, |t, c| problem(t, c).is_some()) {
         Some(t) => Err(problem(t, &cells[t]).expect("found above")),
         None => Ok(()),
     }
@@ -198,7 +198,7 @@ pub fn cells_from_i64<S: Simplex>(flat: &[i64], n_vertices: usize) -> Result<Vec
         return Err(Error::Shape { what: format!("{} indices do not form rows of {k}", flat.len()) });
     }
     let out_of_range = |i: i64| i < 0 || i as u64 >= n_vertices as u64;
-    if let Some(at) = crate::parallel::position_first(flat, |_, &i| out_of_range(i)) {
+    if let Some(at) = crate::threads::position_first(flat, |_, &i| out_of_range(i)) {
         return Err(Error::IndexOutOfRange {
             element: at / k,
             corner: at % k,

@@ -1,7 +1,6 @@
 //! What to compute and how: operator kinds and the options common to every call.
 
-use crate::error::{Error, Feature, Result};
-use crate::simplex::Simplex;
+use crate::error::{Error, Result};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -73,7 +72,7 @@ pub enum Boundary {
 /// let opts = tetlap::Options { cancel: Some(cancel.clone()), ..Default::default() };
 /// cancel.cancel();
 /// let points = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-/// let mesh = tetlap::TetMesh::new(&points, 3, &[[0, 1, 2, 3]])?;
+/// let mesh = tetlap::TetView::new(&points, 3, &[[0, 1, 2, 3]])?;
 /// let result = tetlap::laplacian(&mesh, tetlap::LaplacianKind::Primal, &opts);
 /// assert_eq!(result, Err(tetlap::Error::Cancelled));
 /// # Ok::<(), tetlap::Error>(())
@@ -119,15 +118,10 @@ pub struct Options {
 }
 
 impl Options {
-    /// Checks the options for meshes of `S`: the thread count and the boundary treatment.
-    pub fn check<S: Simplex>(&self) -> Result<()> {
-        if let Some(threads) = self.threads {
-            crate::parallel::check_threads(threads)?;
-        }
-        if self.boundary == Boundary::Barycentric && !S::WEIGHTED_DUAL {
-            return Err(Error::Unsupported { option: Feature::BarycentricBoundary, element: S::NAME });
-        }
-        Ok(())
+    /// Runs `f` on the options' worker threads: the one way into a thread pool, and the one
+    /// check of [`Options::threads`] ([`Error::Threads`] before anything runs).
+    pub fn install<R: Send>(&self, f: impl FnOnce() -> Result<R> + Send) -> Result<R> {
+        crate::threads::run(self.threads, f)?
     }
 
     /// Whether the cancel flag is set.

@@ -23,7 +23,7 @@ fn same_mass(a: &Mass, b: &Mass) -> bool {
 }
 
 /// Every cached operator against a fresh one-shot assembly of `mesh`.
-fn assert_equal_to_one_shot<S: Simplex>(cached: &mut CachedMesh<S>, mesh: &Mesh<S>, opts: &Options) {
+fn assert_equal_to_one_shot<S: Simplex>(cached: &mut CachedMesh<S>, mesh: &MeshView<S>, opts: &Options) {
     for kind in KINDS {
         let fresh = laplacian(mesh, kind, opts).unwrap();
         assert!(same_csr(&cached.laplacian(kind).unwrap(), &fresh), "laplacian {kind:?}");
@@ -35,10 +35,10 @@ fn assert_equal_to_one_shot<S: Simplex>(cached: &mut CachedMesh<S>, mesh: &Mesh<
 }
 
 /// The one-shot view of the same mesh (weighted if the cached one is).
-fn one_shot<'a, S: Simplex>(points: &'a [f64], dim: usize, cells: &'a [S::Cell], weights: Option<&'a [f64]>) -> Mesh<'a, S> {
-    let mesh = Mesh::<S>::new(points, dim, cells).unwrap();
+fn one_shot<'a, S: Simplex>(points: &'a [f64], dim: usize, cells: &'a [S::Cell], weights: Option<&'a [f64]>) -> MeshView<'a, S> {
+    let mesh = MeshView::<S>::new(points, dim, cells).unwrap();
     match weights {
-        Some(w) => mesh.with_weights(w).unwrap(),
+        Some(w) => mesh.with_vertex_weights(w).unwrap(),
         None => mesh,
     }
 }
@@ -48,7 +48,7 @@ fn one_shot<'a, S: Simplex>(points: &'a [f64], dim: usize, cells: &'a [S::Cell],
 fn updates<S: Simplex>(points: Vec<f64>, dim: usize, cells: Vec<S::Cell>, weights: Option<Vec<f64>>, opts: Options) {
     let n = points.len() / dim;
     let w = weights.as_deref();
-    let mut cached = CachedMesh::<S>::with_weights(points.clone(), dim, cells.clone(), weights.clone(), opts.clone()).unwrap();
+    let mut cached = CachedMesh::<S>::with_vertex_weights(points.clone(), dim, cells.clone(), weights.clone(), opts.clone()).unwrap();
     assert_equal_to_one_shot(&mut cached, &one_shot(&points, dim, &cells, w), &opts);
     let mut rng = Rng::new(7);
     let mut current = points;
@@ -137,7 +137,7 @@ fn move_vertices_is_update() {
 #[test]
 fn the_pattern_and_the_values_views() {
     let (points, cells) = grid(3, 0.1, 6);
-    let mesh = TetMesh::new(&points, 3, &cells).unwrap();
+    let mesh = TetView::new(&points, 3, &cells).unwrap();
     let mut cached = CachedMesh::<Tet>::new(points.clone(), 3, cells.clone(), Options::default()).unwrap();
     assert_eq!(cached.cached_laplacian_values(LaplacianKind::Dual), None);
     let l = laplacian(&mesh, LaplacianKind::Dual, &Options::default()).unwrap();

@@ -27,9 +27,9 @@ fn mass_bits(m: &Mass) -> Vec<u64> {
 
 /// `(what, bits)` of every one-shot and cached operator of a tet mesh.
 fn tet_outputs(points: &[f64], cells: &[[u32; 4]], opts: &Options) -> Vec<(String, Vec<u64>)> {
-    let mesh = TetMesh::new(points, 3, cells).unwrap();
+    let mesh = TetView::new(points, 3, cells).unwrap();
     let weights: Vec<f64> = (0..mesh.n_vertices()).map(|i| 1e-3 * (i % 7) as f64).collect();
-    let weighted = mesh.with_weights(&weights).unwrap();
+    let weighted = mesh.with_vertex_weights(&weights).unwrap();
     let barycentric = Options { boundary: Boundary::Barycentric, ..opts.clone() };
     let mut out = vec![];
     let mut push = |what: String, b: Vec<u64>| out.push((what, b));
@@ -119,7 +119,7 @@ fn random_order_grid() {
 fn negative_semidefinite_certificates() {
     // a strongly jittered small grid: the dual has negative weights to certify
     let (points, cells) = grid(5, 0.24, 11);
-    let mesh = TetMesh::new(&points, 3, &cells).unwrap();
+    let mesh = TetView::new(&points, 3, &cells).unwrap();
     let l = laplacian(&mesh, LaplacianKind::Dual, &Options::default()).unwrap();
     let tol = 1e-9 * l.data.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let reference = format!("{:?}", negative_semidefinite(&l, tol, &threads(Some(1))).unwrap());
@@ -133,7 +133,7 @@ fn triangles() {
     let (points, cells) = tri_grid(60, 0.2, 4); // 7200 triangles
     let (points2, cells2, _) = shuffled(&points, 2, &cells, 5);
     for (p, c) in [(&points, &cells), (&points2, &cells2)] {
-        let mesh = TriMesh::new(p, 2, c).unwrap();
+        let mesh = TriView::new(p, 2, c).unwrap();
         let run = |opts: &Options| {
             let (l, m) = operators(&mesh, LaplacianKind::Primal, MassKind::Fem, opts).unwrap();
             let lumped = mass(&mesh, MassKind::Circumcentric, opts).unwrap();

@@ -67,7 +67,7 @@ fn edges_and_duplicates() {
 
 #[test]
 fn quality_of_known_tets() {
-    let corner = TetMesh::new(&CORNER, 3, &[[0, 1, 2, 3], [0, 2, 1, 3]]).unwrap();
+    let corner = TetView::new(&CORNER, 3, &[[0, 1, 2, 3], [0, 2, 1, 3]]).unwrap();
     let q = quality(&corner, &opts()).unwrap();
     assert!((q[0].volume - 1.0 / 6.0).abs() < 1e-16 && (q[1].volume + 1.0 / 6.0).abs() < 1e-16);
     let slanted = (1.0f64 / 3f64.sqrt()).acos().to_degrees();
@@ -77,17 +77,17 @@ fn quality_of_known_tets() {
     assert!(!q[0].well_centered); // right angles: the circumcenter lies on a face
     let s = 1.0 / 8f64.sqrt();
     let regular: Vec<f64> = [1.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0, 1.0, -1.0, -1.0, -1.0, 1.0].iter().map(|x| x * s).collect();
-    let q = quality(&TetMesh::new(&regular, 3, &[[0, 1, 2, 3]]).unwrap(), &opts()).unwrap()[0];
+    let q = quality(&TetView::new(&regular, 3, &[[0, 1, 2, 3]]).unwrap(), &opts()).unwrap()[0];
     assert!(q.well_centered);
     assert!(q.dihedral.iter().all(|a| (a - (1.0f64 / 3.0).acos().to_degrees()).abs() < 1e-12));
     assert!((q.volume.abs() - 1.0 / (6.0 * 2f64.sqrt())).abs() < 1e-15); // edge 1
     // flat: zero volume, NaN angles, not well-centred
     let flat = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0];
-    let q = quality(&TetMesh::new(&flat, 3, &[[0, 1, 2, 3]]).unwrap(), &opts()).unwrap()[0];
+    let q = quality(&TetView::new(&flat, 3, &[[0, 1, 2, 3]]).unwrap(), &opts()).unwrap()[0];
     assert!(q.volume == 0.0 && q.dihedral.iter().all(|a| a.is_nan()) && !q.well_centered);
     // immersed in R^4: the unsigned volume and the same angles
     let r4: Vec<f64> = CORNER.chunks_exact(3).flat_map(|p| [p[0], p[2], 5.0, p[1]]).collect();
-    let q4 = quality(&TetMesh::new(&r4, 4, &[[0, 2, 1, 3]]).unwrap(), &opts()).unwrap()[0];
+    let q4 = quality(&TetView::new(&r4, 4, &[[0, 2, 1, 3]]).unwrap(), &opts()).unwrap()[0];
     assert!((q4.volume - 1.0 / 6.0).abs() < 1e-16);
 }
 
@@ -103,13 +103,13 @@ fn the_delaunay_test() {
     let points = [1.0, 0.0, 0.0, -0.5, 0.866, 0.0, -0.5, -0.866, 0.0, 0.0, 0.0, h, 0.0, 0.0, -h];
     for (cells, expected) in [(vec![[0, 1, 2, 3], [0, 1, 2, 4]], vec![true]),
                               (vec![[3, 4, 0, 1], [3, 4, 1, 2], [3, 4, 2, 0]], vec![false; 3])] {
-        let mesh = TetMesh::new(&points, 3, &cells).unwrap();
+        let mesh = TetView::new(&points, 3, &cells).unwrap();
         let f = faces::<Tet>(&cells, 5, &opts()).unwrap();
         assert_eq!(non_delaunay_faces(&mesh, &f.interior, DELAUNAY_RTOL, &opts()).unwrap(), expected);
     }
     // a Kuhn grid is cospherical everywhere: Delaunay within the tolerance only
     let (points, cells) = grid(2, 0.0, 0);
-    let mesh = TetMesh::new(&points, 3, &cells).unwrap();
+    let mesh = TetView::new(&points, 3, &cells).unwrap();
     let f = faces::<Tet>(&cells, mesh.n_vertices(), &opts()).unwrap();
     assert!(non_delaunay_faces(&mesh, &f.interior, DELAUNAY_RTOL, &opts()).unwrap().iter().all(|&b| !b));
     assert!(non_delaunay_faces(&mesh, &f.interior, -1.0, &opts()).unwrap().iter().any(|&b| b));
@@ -117,7 +117,7 @@ fn the_delaunay_test() {
 
 #[test]
 fn check_operator_of_the_corner_tet() {
-    let tet = TetMesh::new(&CORNER, 3, &[[0, 1, 2, 3]]).unwrap();
+    let tet = TetView::new(&CORNER, 3, &[[0, 1, 2, 3]]).unwrap();
     let l = laplacian(&tet, LaplacianKind::Primal, &opts()).unwrap();
     let c = check_operator(&l, &tet, &[true; 4], 1e-12, &opts()).unwrap();
     assert!(c.finite && c.local && c.symmetry_error == 0.0 && c.max_row_sum < 1e-15);
@@ -131,7 +131,7 @@ fn check_operator_of_the_corner_tet() {
     assert!((c.symmetry_error - 0.25).abs() < 1e-15);
     assert!((c.max_row_sum - 0.25).abs() < 1e-15);
     let five = [CORNER.as_slice(), &[1.0, 1.0, 1.0]].concat(); // vertex 4 unused
-    let two = TetMesh::new(&five, 3, &[[0, 1, 2, 3]]).unwrap();
+    let two = TetView::new(&five, 3, &[[0, 1, 2, 3]]).unwrap();
     let far = Csr { n: 5, indptr: vec![0, 2, 2, 2, 2, 4], indices: vec![0, 4, 0, 4], data: vec![-1.0, 1.0, 1.0, -1.0] };
     assert!(!check_operator(&far, &two, &[true; 5], 1e-12, &opts()).unwrap().local);
 }
@@ -178,7 +178,7 @@ fn semidefiniteness_certificates_and_witnesses() {
     assert!(matches!(negative_semidefinite(&uncovered, 1e-12, &opts()).unwrap(), Semidefinite::Indefinite { .. }));
     // the primal of a mesh is semidefinite: certified or non-negative, never a witness
     let (points, cells) = grid(3, 0.24, 5);
-    let l = laplacian(&TetMesh::new(&points, 3, &cells).unwrap(), LaplacianKind::Primal, &opts()).unwrap();
+    let l = laplacian(&TetView::new(&points, 3, &cells).unwrap(), LaplacianKind::Primal, &opts()).unwrap();
     let tol = 1e-9 * l.data.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     assert!(!matches!(negative_semidefinite(&l, tol, &opts()).unwrap(), Semidefinite::Indefinite { .. }));
 }

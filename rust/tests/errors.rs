@@ -10,36 +10,36 @@ use tetlap::*;
 
 const CORNER: [f64; 12] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
 
-fn dual(mesh: &TetMesh, opts: &Options) -> Result<Csr> {
+fn dual(mesh: &TetView, opts: &Options) -> Result<Csr> {
     laplacian(mesh, LaplacianKind::Dual, opts)
 }
 
 #[test]
 fn input_errors_name_the_element_and_the_vertex() {
-    assert!(matches!(TetMesh::new(&CORNER[..8], 2, &[[0, 1, 2, 3]]), Err(Error::Shape { .. })));
-    assert!(matches!(TetMesh::new(&CORNER[..11], 3, &[[0, 1, 2, 3]]), Err(Error::Shape { .. })));
-    assert_eq!(TetMesh::new(&CORNER, 3, &[]).unwrap_err(), Error::EmptyMesh { n_vertices: 4, n_elements: 0 });
-    assert_eq!(TetMesh::new(&[], 3, &[[0, 1, 2, 3]]).unwrap_err(), Error::EmptyMesh { n_vertices: 0, n_elements: 1 });
+    assert!(matches!(TetView::new(&CORNER[..8], 2, &[[0, 1, 2, 3]]), Err(Error::Shape { .. })));
+    assert!(matches!(TetView::new(&CORNER[..11], 3, &[[0, 1, 2, 3]]), Err(Error::Shape { .. })));
+    assert_eq!(TetView::new(&CORNER, 3, &[]).unwrap_err(), Error::EmptyMesh { n_vertices: 4, n_elements: 0 });
+    assert_eq!(TetView::new(&[], 3, &[[0, 1, 2, 3]]).unwrap_err(), Error::EmptyMesh { n_vertices: 0, n_elements: 1 });
     let mut nan = CORNER;
     nan[3 * 2 + 1] = f64::NAN;
-    let Err(Error::NonFiniteCoordinate { vertex, coordinate, value }) = TetMesh::new(&nan, 3, &[[0, 1, 2, 3]])
+    let Err(Error::NonFiniteCoordinate { vertex, coordinate, value }) = TetView::new(&nan, 3, &[[0, 1, 2, 3]])
     else { panic!("expected NonFiniteCoordinate") };
     assert_eq!((vertex, coordinate), (2, 1));
     assert!(value.is_nan());
     let cells = [[0, 1, 2, 3], [0, 1, 2, 3], [3, 2, 1, 4], [0, 0, 1, 2]];
     assert_eq!(
-        TetMesh::new(&CORNER, 3, &cells).unwrap_err(),
+        TetView::new(&CORNER, 3, &cells).unwrap_err(),
         Error::IndexOutOfRange { element: 2, corner: 3, index: 4, n_vertices: 4 }
     );
-    assert_eq!(TetMesh::new(&CORNER, 3, &cells[3..]).unwrap_err(), Error::RepeatedVertex { element: 0, vertex: 0 });
+    assert_eq!(TetView::new(&CORNER, 3, &cells[3..]).unwrap_err(), Error::RepeatedVertex { element: 0, vertex: 0 });
     assert_eq!(
         cells_from_i64::<Tet>(&[0, 1, 2, 3, 3, 2, -1, 0], 4).unwrap_err(),
         Error::IndexOutOfRange { element: 1, corner: 2, index: -1, n_vertices: 4 }
     );
-    let tet = TetMesh::new(&CORNER, 3, &[[0, 1, 2, 3]]).unwrap();
-    assert!(matches!(tet.with_weights(&[0.0; 3]), Err(Error::Shape { .. })));
+    let tet = TetView::new(&CORNER, 3, &[[0, 1, 2, 3]]).unwrap();
+    assert!(matches!(tet.with_vertex_weights(&[0.0; 3]), Err(Error::Shape { .. })));
     assert_eq!(
-        tet.with_weights(&[0.0, 0.0, 0.0, f64::INFINITY]).unwrap_err(),
+        tet.with_vertex_weights(&[0.0, 0.0, 0.0, f64::INFINITY]).unwrap_err(),
         Error::NonFiniteWeight { vertex: 3, value: f64::INFINITY }
     );
 }
@@ -53,12 +53,12 @@ fn the_first_bad_element_is_named_whatever_the_thread_count() {
     // validation runs on the caller's rayon pool: try pools of 1, 2 and 3 threads
     for t in 1..=3 {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap();
-        let e = pool.install(|| TetMesh::new(&points, 3, &cells).unwrap_err());
+        let e = pool.install(|| TetView::new(&points, 3, &cells).unwrap_err());
         assert_eq!(e, Error::IndexOutOfRange { element: a, corner: 2, index: 10_000, n_vertices: 729 }, "{t}");
         assert!(e.to_string().contains("element 1500 refers to vertex 10000"));
     }
     cells[a][2] = 0;
-    assert_eq!(TetMesh::new(&points, 3, &cells).unwrap_err(), Error::RepeatedVertex { element: b, vertex: cells[b][0] });
+    assert_eq!(TetView::new(&points, 3, &cells).unwrap_err(), Error::RepeatedVertex { element: b, vertex: cells[b][0] });
 }
 
 #[test]
@@ -74,7 +74,7 @@ fn degenerate_elements_are_named_or_skipped() {
     };
     let flats: Vec<usize> = (0..cells.len()).filter(|&t| common::volume(&flat_points, &cells[t]) == 0.0).collect();
     assert!(!flats.is_empty());
-    let mesh = TetMesh::new(&flat_points, 3, &cells).unwrap();
+    let mesh = TetView::new(&flat_points, 3, &cells).unwrap();
     for t in THREADS {
         for kind in [LaplacianKind::Primal, LaplacianKind::Dual] {
             assert_eq!(laplacian(&mesh, kind, &threads(t)).unwrap_err(), Error::Degenerate { element: flats[0] });
@@ -86,14 +86,14 @@ fn degenerate_elements_are_named_or_skipped() {
     assert!(flats.iter().all(|&t| w[t] == [0.0; 6]));
     assert!(w.iter().flatten().all(|x| x.is_finite()));
     // a flat triangle
-    let tri = TriMesh::new(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 2.0, 0.0], 2, &[[0, 1, 2], [0, 1, 3]]).unwrap();
+    let tri = TriView::new(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 2.0, 0.0], 2, &[[0, 1, 2], [0, 1, 3]]).unwrap();
     assert_eq!(laplacian(&tri, LaplacianKind::Primal, &Options::default()).unwrap_err(), Error::Degenerate { element: 1 });
 }
 
 #[test]
 fn results_that_overflow_are_named() {
     let huge: Vec<f64> = CORNER.iter().map(|x| x * 1e150).collect();
-    let tet = TetMesh::new(&huge, 3, &[[0, 1, 2, 3]]).unwrap();
+    let tet = TetView::new(&huge, 3, &[[0, 1, 2, 3]]).unwrap();
     let e = mass(&tet, MassKind::Circumcentric, &Options::default()).unwrap_err();
     assert_eq!(e, Error::NonFiniteResult { element: 0 });
     assert!(e.to_string().contains("element 0"));
@@ -103,7 +103,7 @@ fn results_that_overflow_are_named() {
 
 #[test]
 fn option_errors() {
-    let tet = TetMesh::new(&CORNER, 3, &[[0, 1, 2, 3]]).unwrap();
+    let tet = TetView::new(&CORNER, 3, &[[0, 1, 2, 3]]).unwrap();
     let opts = Options::default();
     for t in [-0.5, 1.5, f64::NAN] {
         let e = laplacian(&tet, LaplacianKind::Affine(t), &opts).unwrap_err();
@@ -127,7 +127,7 @@ fn cancellation_returns_cancelled_everywhere() {
     let cancel = Cancel::new();
     cancel.cancel();
     let opts = Options { cancel: Some(cancel.clone()), ..Default::default() };
-    let mesh = TetMesh::new(&points, 3, &cells).unwrap();
+    let mesh = TetView::new(&points, 3, &cells).unwrap();
     let n = mesh.n_vertices();
     assert_eq!(dual(&mesh, &opts).unwrap_err(), Error::Cancelled);
     assert_eq!(mass(&mesh, MassKind::Fem, &opts).unwrap_err(), Error::Cancelled);
@@ -137,7 +137,7 @@ fn cancellation_returns_cancelled_everywhere() {
     assert_eq!(quality(&mesh, &opts).unwrap_err(), Error::Cancelled);
     assert_eq!(CachedMesh::<Tet>::new(points.clone(), 3, cells.clone(), opts.clone()).unwrap_err(), Error::Cancelled);
     let (tp, tc) = tri_grid(4, 0.1, 1);
-    let tri = TriMesh::new(&tp, 2, &tc).unwrap();
+    let tri = TriView::new(&tp, 2, &tc).unwrap();
     assert_eq!(laplacian(&tri, LaplacianKind::Primal, &opts).unwrap_err(), Error::Cancelled);
     assert!(Cancel::new() != cancel && cancel.is_cancelled());
 }
@@ -201,7 +201,7 @@ fn a_failed_or_cancelled_update_changes_nothing() {
 
 #[test]
 fn check_operator_refuses_a_matrix_of_another_size() {
-    let tet = TetMesh::new(&CORNER, 3, &[[0, 1, 2, 3]]).unwrap();
+    let tet = TetView::new(&CORNER, 3, &[[0, 1, 2, 3]]).unwrap();
     let l = Csr { n: 3, indptr: vec![0, 1, 2, 3], indices: vec![0, 1, 2], data: vec![0.0; 3] };
     assert!(matches!(check_operator(&l, &tet, &[false; 4], 1e-12, &Options::default()), Err(Error::Shape { .. })));
 }

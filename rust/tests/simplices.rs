@@ -29,7 +29,7 @@ fn mass_total(m: &Mass) -> f64 {
 /// kinds of element, and returns the total of each mass kind.
 fn through_the_api<S: Simplex>(points: &[f64], dim: usize, cells: &[S::Cell]) -> [f64; 3] {
     let opts = Options::default();
-    let mesh = Mesh::<S>::new(points, dim, cells).unwrap();
+    let mesh = MeshView::<S>::new(points, dim, cells).unwrap();
     let n = mesh.n_vertices();
     for kind in [LaplacianKind::Primal, LaplacianKind::Dual, LaplacianKind::Affine(0.5)] {
         let l = laplacian(&mesh, kind, &opts).unwrap();
@@ -103,7 +103,7 @@ fn tets_and_triangles_go_through_the_same_functions() {
 #[test]
 fn a_tet_meshs_masses_are_its_volume() {
     let (points, cells) = grid(4, 0.24, 3);
-    let mesh = TetMesh::new(&points, 3, &cells).unwrap();
+    let mesh = TetView::new(&points, 3, &cells).unwrap();
     let opts = Options::default();
     let mut expected = vec![0.0; mesh.n_vertices()];
     for c in &cells {
@@ -127,7 +127,7 @@ fn a_tet_meshs_masses_are_its_volume() {
 fn a_triangle_meshs_primal_is_its_dual() {
     for (k, jitter) in [(8, 0.0), (8, 0.24), (15, 0.2)] {
         let (points, cells) = tri_grid(k, jitter, 4);
-        let mesh = TriMesh::new(&points, 2, &cells).unwrap();
+        let mesh = TriView::new(&points, 2, &cells).unwrap();
         let opts = Options::default();
         let p = laplacian(&mesh, LaplacianKind::Primal, &opts).unwrap();
         let d = laplacian(&mesh, LaplacianKind::Dual, &opts).unwrap();
@@ -146,8 +146,8 @@ fn an_immersed_triangle_mesh_is_the_flat_one() {
     let (c, s) = (0.6f64, 0.8f64);
     let lifted: Vec<f64> = points.chunks_exact(2).flat_map(|p| [p[0] * c, p[1], p[0] * s, 1.0]).collect();
     let opts = Options::default();
-    let flat = laplacian(&TriMesh::new(&points, 2, &cells).unwrap(), LaplacianKind::Dual, &opts).unwrap();
-    let up = laplacian(&TriMesh::new(&lifted, 4, &cells).unwrap(), LaplacianKind::Dual, &opts).unwrap();
+    let flat = laplacian(&TriView::new(&points, 2, &cells).unwrap(), LaplacianKind::Dual, &opts).unwrap();
+    let up = laplacian(&TriView::new(&lifted, 4, &cells).unwrap(), LaplacianKind::Dual, &opts).unwrap();
     let scale = max_abs(&flat.data);
     for (a, b) in flat.data.iter().zip(&up.data) {
         assert!((a - b).abs() <= 1e-13 * scale);
@@ -160,7 +160,7 @@ fn single_elements_by_hand() {
     // the corner tet (SPEC golden values): dual row 0 = (-3/4, 1/4, 1/4, 1/4), dual cell
     // volumes (1/8, 1/72, 1/72, 1/72); primal row 0 = (-1/2, 1/6, 1/6, 1/6)
     let points = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-    let tet = TetMesh::new(&points, 3, &[[0, 1, 2, 3]]).unwrap();
+    let tet = TetView::new(&points, 3, &[[0, 1, 2, 3]]).unwrap();
     let d = laplacian(&tet, LaplacianKind::Dual, &opts).unwrap();
     let p = laplacian(&tet, LaplacianKind::Primal, &opts).unwrap();
     for (j, (dv, pv)) in [(-0.75, -0.5), (0.25, 1.0 / 6.0), (0.25, 1.0 / 6.0), (0.25, 1.0 / 6.0)].iter().enumerate() {
@@ -174,7 +174,7 @@ fn single_elements_by_hand() {
     let Mass::Consistent(f) = mass(&tet, MassKind::Fem, &opts).unwrap() else { panic!() };
     assert!((f.get(0, 0) - 1.0 / 60.0).abs() < 1e-16 && (f.get(0, 1) - 1.0 / 120.0).abs() < 1e-16);
     // the right triangle (0,0), (1,0), (0,1): w = cot(opposite angle) / 2
-    let tri = TriMesh::new(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], 2, &[[0, 1, 2]]).unwrap();
+    let tri = TriView::new(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], 2, &[[0, 1, 2]]).unwrap();
     let w = contributions(&tri, LaplacianKind::Primal, &opts).unwrap()[0];
     assert!((w[0] - 0.5).abs() < 1e-15 && (w[1] - 0.5).abs() < 1e-15 && w[2].abs() < 1e-15);
     let Mass::Consistent(f) = mass(&tri, MassKind::Fem, &opts).unwrap() else { panic!() };
@@ -184,10 +184,10 @@ fn single_elements_by_hand() {
 #[test]
 fn options_that_only_tets_support() {
     let (points, cells) = tri_grid(2, 0.0, 0);
-    let tri = TriMesh::new(&points, 2, &cells).unwrap();
+    let tri = TriView::new(&points, 2, &cells).unwrap();
     let weights = vec![0.0; tri.n_vertices()];
     assert_eq!(
-        tri.with_weights(&weights).unwrap_err(),
+        tri.with_vertex_weights(&weights).unwrap_err(),
         Error::Unsupported { option: Feature::VertexWeights, element: "triangle" }
     );
     let opts = Options { boundary: Boundary::Barycentric, ..Default::default() };
@@ -197,7 +197,7 @@ fn options_that_only_tets_support() {
     );
     // the same options are fine for tets
     let (points, cells) = grid(2, 0.0, 0);
-    let tet = TetMesh::new(&points, 3, &cells).unwrap();
+    let tet = TetView::new(&points, 3, &cells).unwrap();
     let weights = vec![0.0; tet.n_vertices()];
-    assert!(laplacian(&tet.with_weights(&weights).unwrap(), LaplacianKind::Dual, &opts).is_ok());
+    assert!(laplacian(&tet.with_vertex_weights(&weights).unwrap(), LaplacianKind::Dual, &opts).is_ok());
 }

@@ -6,7 +6,7 @@ use crate::errors::{shape_error, to_py};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
-use tetlap::{Coo, Csr, LaplacianKind, Mass, MassKind, Mesh, Options, Simplex, Tet, Tri};
+use tetlap::{Coo, Csr, LaplacianKind, Mass, MassKind, MeshView, Options, Simplex, Tet, Tri};
 
 /// The elements of a mesh: tets or triangles.
 pub enum Cells {
@@ -25,7 +25,7 @@ pub struct Input {
 /// Something to compute on a mesh of any element kind.
 pub trait Job: Send {
     type Output: Send;
-    fn run<S: Simplex>(self, mesh: &Mesh<S>, opts: &Options) -> tetlap::Result<Self::Output>;
+    fn run<S: Simplex>(self, mesh: &MeshView<S>, opts: &Options) -> tetlap::Result<Self::Output>;
 }
 
 /// Something to compute on the elements alone (no coordinates), of any kind.
@@ -94,16 +94,16 @@ impl Input {
     }
 
     /// The validated mesh of `cells` (this input's), with its vertex weights.
-    pub fn mesh<'a, S: Simplex>(&'a self, cells: &'a [S::Cell]) -> tetlap::Result<Mesh<'a, S>> {
-        let mesh = Mesh::new(&self.points, self.dim, cells)?;
+    pub fn mesh<'a, S: Simplex>(&'a self, cells: &'a [S::Cell]) -> tetlap::Result<MeshView<'a, S>> {
+        let mesh = MeshView::new(&self.points, self.dim, cells)?;
         match &self.weights {
-            Some(w) => mesh.with_weights(w),
+            Some(w) => mesh.with_vertex_weights(w),
             None => Ok(mesh),
         }
     }
 
     /// The validated tet mesh, or the error for a triangle mesh (what only tets support).
-    pub fn tets(&self) -> tetlap::Result<Mesh<'_, Tet>> {
+    pub fn tets(&self) -> tetlap::Result<MeshView<'_, Tet>> {
         match &self.cells {
             Cells::Tets(c) => self.mesh::<Tet>(c),
             Cells::Tris(_) => Err(tetlap::Error::Shape { what: "this needs a tet mesh, (m, 4) elements".into() }),
@@ -143,7 +143,7 @@ pub enum Response {
 impl Job for Request {
     type Output = Response;
 
-    fn run<S: Simplex>(self, mesh: &Mesh<S>, opts: &Options) -> tetlap::Result<Response> {
+    fn run<S: Simplex>(self, mesh: &MeshView<S>, opts: &Options) -> tetlap::Result<Response> {
         Ok(match self {
             Request::Laplacian(kind) => Response::Matrix(tetlap::laplacian(mesh, kind, opts)?),
             Request::Mass(kind) => Response::Mass(tetlap::mass(mesh, kind, opts)?),

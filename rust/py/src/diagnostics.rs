@@ -248,7 +248,7 @@ struct CheckJob {
 
 impl crate::convert::Job for CheckJob {
     type Output = tetlap::OperatorCheck;
-    fn run<S: Simplex>(self, mesh: &tetlap::Mesh<S>, opts: &Options) -> tetlap::Result<tetlap::OperatorCheck> {
+    fn run<S: Simplex>(self, mesh: &tetlap::MeshView<S>, opts: &Options) -> tetlap::Result<tetlap::OperatorCheck> {
         tetlap::check_operator(&self.l, mesh, &self.boundary, self.negative_tol, opts)
     }
 }

@@ -90,8 +90,8 @@ impl PyMesh {
         let opts = Options { threads: threads.0, degenerate: degenerate.0, boundary: boundary.0, cancel: Some(cancel.clone()) };
         let inner = guarded(py, &cancel, move || {
             let mut mesh = match cells {
-                Cells::Tets(c) => AnyMesh::Tets(CachedMesh::with_weights(points, dim, c, weights, opts)?),
-                Cells::Tris(c) => AnyMesh::Tris(CachedMesh::with_weights(points, dim, c, weights, opts)?),
+                Cells::Tets(c) => AnyMesh::Tets(CachedMesh::with_vertex_weights(points, dim, c, weights, opts)?),
+                Cells::Tris(c) => AnyMesh::Tris(CachedMesh::with_vertex_weights(points, dim, c, weights, opts)?),
             };
             with_mesh!(&mut mesh, m => m.set_cancel(None));
             Ok(mesh)

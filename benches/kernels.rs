@@ -1,0 +1,61 @@
+//! The kernels of one tet, single-threaded: nanoseconds per tet, forward and reverse.
+//!
+//! `cargo bench --bench kernels` (add `-- --quick` for a fast pass). Every case runs its
+//! kernel over the same 100,000 well-shaped random tets; criterion's throughput (tets per
+//! second) gives the time per tet. The VJPs of [`tetlap::element::tet::derivatives`] are
+//! timed beside the forward kernels they differentiate.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use std::hint::black_box;
+use tetlap::element::tet::derivatives::{dual_vjp, primal_vjp, volume_vjp, Vjp};
+use tetlap::element::tet::{barycentric_mass, dual, power_dual, primal_weights, volume};
+use tetlap::{local_tet, LocalTet};
+
+/// 100,000 random tets of the unit cube with volume above 0.01 (a fixed sequence).
+fn tets() -> Vec<LocalTet> {
+    let mut state = 1u64;
+    let mut uniform = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    (0..100_000)
+        .map(|_| loop {
+            let x: [[f64; 3]; 4] = std::array::from_fn(|_| std::array::from_fn(|_| uniform()));
+            let t = local_tet([&x[0], &x[1], &x[2], &x[3]], &mut []);
+            if volume(&t) > 0.01 {
+                break t;
+            }
+        })
+        .collect()
+}
+
+fn bench(c: &mut Criterion) {
+    let tets = tets();
+    let w = [0.0, 0.01, -0.02, 0.015];
+    let (dw, dm) = ([0.3, -0.2, 0.5, 0.7, -1.1, 0.4], [0.2, 0.1, -0.3, 0.5]);
+    let mut group = c.benchmark_group("kernels");
+    group.sample_size(20);
+    group.throughput(Throughput::Elements(tets.len() as u64));
+    let mut case = |name: &str, f: &dyn Fn(&LocalTet)| {
+        group.bench_function(name, |b| b.iter(|| tets.iter().for_each(|t| f(black_box(t)))));
+    };
+    case("volume", &|t| { black_box(volume(t)); });
+    case("barycentric mass", &|t| { black_box(barycentric_mass(t)); });
+    case("primal", &|t| { black_box(primal_weights(t)); });
+    case("dual", &|t| { black_box(dual(t)); });
+    case("power dual", &|t| { black_box(power_dual(t, Some(&w), false)); });
+    case("volume vjp", &|t| { black_box(volume_vjp(t, 1.0)); });
+    case("primal vjp", &|t| { black_box(primal_vjp(t, dw)); });
+    case("dual vjp", &|t| { black_box(dual_vjp(t, None, dw, dm)); });
+    case("power dual vjp", &|t| { black_box(dual_vjp(t, Some(w), dw, dm)); });
+    case("affine + circumcentric vjp", &|t| {
+        let mut v = Vjp::new(t);
+        let _ = v.primal(dw.map(|x| 0.5 * x));
+        v.dual(None, dw.map(|x| 0.5 * x), dm);
+        black_box(v.finish());
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,52 @@
+//! Geometry of a tet mesh as a quality report: the per-tet quality of every tet and the
+//! local Delaunay test of every interior face (the kernels are in [`crate::element::tet`]).
+
+use crate::element::tet::{inside_circumsphere, tet_quality, TetQuality};
+use crate::error::Result;
+use crate::mesh::TetView;
+use crate::options::Options;
+use crate::assembly::CHUNK;
+use rayon::prelude::*;
+
+/// The quality of every tet of `mesh`, in its order.
+pub fn quality(mesh: &TetView, opts: &Options) -> Result<Vec<TetQuality>> {
+    let signed = mesh.dim() == 3;
+    let mut out = vec![TetQuality::default(); mesh.n_elements()];
+    opts.install(|| {
+        out.par_chunks_mut(CHUNK).enumerate().try_for_each_init(
+            || vec![0.0; 3 * mesh.dim()],
+            |scratch, (c, chunk)| {
+                opts.cancelled()?;
+                for (k, slot) in chunk.iter_mut().enumerate() {
+                    *slot = tet_quality(&mesh.local(c * CHUNK + k, scratch), signed);
+                }
+                Ok(())
+            },
+        )
+    })?;
+    Ok(out)
+}
+
+/// For every interior face `[t1, c1, t2, c2]` (see [`crate::Faces`]): whether the vertex of
+/// `t2` opposite the face lies strictly inside the circumsphere of `t1` (R^3 only; in exact
+/// arithmetic the test is symmetric in the two tets).
+pub fn non_delaunay_faces(mesh: &TetView, interior: &[[u32; 4]], rtol: f64, opts: &Options) -> Result<Vec<bool>> {
+    let point = |v: u32| -> [f64; 3] {
+        let p = &mesh.points()[v as usize * mesh.dim()..];
+        [p[0], p[1], p[2]]
+    };
+    let cells = mesh.cells();
+    let mut out = vec![false; interior.len()];
+    opts.install(|| {
+        out.par_chunks_mut(CHUNK).zip(interior.par_chunks(CHUNK)).try_for_each(|(flags, faces)| {
+            opts.cancelled()?;
+            for (flag, &[t1, _, t2, c2]) in flags.iter_mut().zip(faces) {
+                let x = cells[t1 as usize].map(point);
+                *flag = inside_circumsphere(x, point(cells[t2 as usize][c2 as usize]), rtol);
+            }
+            Ok(())
+        })
+    })?;
+    Ok(out)
+}
+

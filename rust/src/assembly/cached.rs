@@ -1,0 +1,509 @@
+//! A mesh that keeps its topology: re-assembly without the symbolic step, and updates that
+//! recompute only what moved (strong locality, paper Sec. 7.1).
+
+use crate::assembly::scatter::{finite_rows, laplacian_values, mass_values};
+use crate::sparse::{Csr, Mass};
+use crate::assembly::pass::{boundary_mask, Elements};
+use crate::element::{Element, Fault};
+use crate::error::{Error, Result};
+use crate::assembly::order::Layout;
+use crate::mesh::MeshView;
+use crate::options::{LaplacianKind, MassKind, Options};
+use crate::assembly::pass::{chunked, per_element, per_element_subset, CHUNK};
+use crate::element::{Simplex, Tet};
+use crate::assembly::pattern::Topology;
+use rayon::prelude::*;
+use std::ops::Range;
+
+/// One cached operator: its per-element values and its assembled values.
+#[derive(Debug, Clone)]
+struct Cached<K, T> {
+    kind: K,
+    per_element: Vec<T>,
+    /// CSR data on the topology's pattern, or one value per vertex for lumped masses.
+    values: Vec<f64>,
+}
+
+/// What an update recomputed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Update {
+    /// Vertices whose coordinates changed.
+    pub moved_vertices: usize,
+    /// Elements around them (recomputed once per cached operator).
+    pub recomputed_elements: usize,
+    /// Rows (vertices) whose values were re-summed.
+    pub recomputed_rows: usize,
+}
+
+/// A mesh with its topology computed once, and the operators asked for so far.
+///
+/// [`CachedMesh::update`] moves vertices and refreshes every cached operator by
+/// recomputing only the elements around moved vertices and re-summing only the rows of
+/// their corners. Rows are always summed over their elements in ascending order, so the
+/// result is **bitwise equal** to a fresh assembly of the new geometry.
+///
+/// ```
+/// use tetlap::{CachedMesh, LaplacianKind, Options, Tet, TetView};
+/// let points = vec![0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.];
+/// let mut mesh = CachedMesh::<Tet>::new(points.clone(), 3, vec![[0, 1, 2, 3], [4, 2, 1, 3]], Options::default())?;
+/// let before = mesh.laplacian(LaplacianKind::Dual)?;
+/// let mut moved = points.clone();
+/// moved[14] = 1.5; // vertex 4 moves
+/// let update = mesh.update(&moved)?;
+/// assert_eq!(update.moved_vertices, 1);
+/// let fresh = tetlap::laplacian(&TetView::new(&moved, 3, &mesh.cells())?,
+///                               LaplacianKind::Dual, &Options::default())?;
+/// assert_eq!(mesh.laplacian(LaplacianKind::Dual)?, fresh);
+/// assert_ne!(before, fresh);
+/// # Ok::<(), tetlap::Error>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct CachedMesh<S: Simplex = Tet> {
+    /// The mesh in internal order (coordinates kept up to date by updates).
+    layout: Layout<S>,
+    /// Internal elements with the barycentric boundary fix.
+    boundary: Option<Vec<bool>>,
+    opts: Options,
+    topology: Topology,
+    laplacians: Vec<Cached<LaplacianKind, S::EdgeValues>>,
+    masses: Vec<Cached<MassKind, S::CornerValues>>,
+}
+
+impl<S: Simplex> CachedMesh<S> {
+    /// Validates the mesh (as [`MeshView::new`]) and computes its topology.
+    pub fn new(points: Vec<f64>, dim: usize, cells: Vec<S::Cell>, opts: Options) -> Result<Self> {
+        Self::with_vertex_weights(points, dim, cells, None, opts)
+    }
+
+    /// [`CachedMesh::new`] with vertex weights for the dual (see [`MeshView::with_vertex_weights`]).
+    pub fn with_vertex_weights(
+        points: Vec<f64>,
+        dim: usize,
+        cells: Vec<S::Cell>,
+        weights: Option<Vec<f64>>,
+        opts: Options,
+    ) -> Result<Self> {
+        let mesh = MeshView::<S>::new(&points, dim, &cells)?;
+        let mesh = match &weights {
+            Some(w) => mesh.with_vertex_weights(w)?,
+            None => mesh,
+        };
+        let (layout, topology, boundary) = super::install::<S, _>(&opts, || {
+            let layout = Layout::new(&mesh, &opts)?;
+            let (topology, boundary) = rayon::join(
+                || Topology::new::<S>(&layout, &cells, &opts),
+                || boundary_mask(&layout.mesh(), &opts),
+            );
+            Ok((layout, topology?, boundary?))
+        })?;
+        opts.cancelled()?;
+        let (laplacians, masses) = (vec![], vec![]);
+        Ok(CachedMesh { layout, boundary, opts, topology, laplacians, masses })
+    }
+
+    /// The current coordinates in the user's order, row-major `(n, dim)` (a copy).
+    pub fn points(&self) -> Vec<f64> {
+        let (dim, internal) = (self.layout.dim, &self.layout.points);
+        let mut out = vec![0.0; internal.len()];
+        for (p, &u) in internal.chunks_exact(dim).zip(&self.layout.vertex_of) {
+            out[u as usize * dim..][..dim].copy_from_slice(p);
+        }
+        out
+    }
+
+    /// The elements in the user's order and numbering (a copy).
+    pub fn cells(&self) -> Vec<S::Cell> {
+        let mut out = vec![S::Cell::default(); self.layout.cells.len()];
+        for (cell, &t) in self.layout.cells.iter().zip(&self.layout.element_of) {
+            let mut user = *cell;
+            for v in user.as_mut() {
+                *v = self.layout.vertex_of[*v as usize];
+            }
+            out[t as usize] = user;
+        }
+        out
+    }
+
+    /// Number of vertices.
+    pub fn n_vertices(&self) -> usize {
+        self.layout.n_vertices()
+    }
+
+    /// Ambient dimension.
+    pub fn dim(&self) -> usize {
+        self.layout.dim
+    }
+
+    /// The options the mesh was built with.
+    pub fn options(&self) -> &Options {
+        &self.opts
+    }
+
+    /// Sets (or clears) the cancel flag that the following calls poll (see
+    /// [`Options::cancel`]).
+    pub fn set_cancel(&mut self, cancel: Option<crate::Cancel>) {
+        self.opts.cancel = cancel;
+    }
+
+    /// The cached topology (CSR pattern and slot map).
+    pub fn topology(&self) -> &Topology {
+        &self.topology
+    }
+
+    fn elements(&self) -> Elements<'_, S> {
+        let boundary = self.boundary.as_deref().map(std::borrow::Cow::Borrowed);
+        Elements::internal(self.layout.mesh(), &self.layout.element_of, boundary)
+    }
+
+    /// CSR data of the Laplacian of `kind` on [`CachedMesh::topology`]'s pattern, if it is
+    /// cached.
+    pub fn cached_laplacian_values(&self, kind: LaplacianKind) -> Option<&[f64]> {
+        self.laplacians.iter().find(|c| c.kind == kind).map(|c| &c.values[..])
+    }
+
+    /// CSR data of the Laplacian of `kind` on [`CachedMesh::topology`]'s pattern (computed
+    /// on first use, then kept up to date by [`CachedMesh::update`]).
+    pub fn laplacian_values(&mut self, kind: LaplacianKind) -> Result<&[f64]> {
+        let kind = kind.check()?;
+        if let Some(index) = self.laplacians.iter().position(|c| c.kind == kind) {
+            return Ok(&self.laplacians[index].values);
+        }
+        let (elements, topo, opts) = (self.elements(), &self.topology, &self.opts);
+        let cached = super::install::<S, _>(opts, || {
+            let mut w = vec![S::EdgeValues::default(); self.layout.cells.len()];
+            per_element(&elements, opts, &mut w, |el| el.laplacian(kind))?;
+            let values = laplacian_values::<S>(topo, &w, None, vec![0.0; topo.nnz()], opts)?;
+            finite_rows(topo.indptr(), &values)?;
+            Ok(Cached { kind, per_element: w, values })
+        })?;
+        self.laplacians.push(cached);
+        Ok(&self.laplacians.last().expect("just pushed").values)
+    }
+
+    /// The Laplacian of `kind` as a CSR matrix (a copy of the cached values).
+    pub fn laplacian(&mut self, kind: LaplacianKind) -> Result<Csr> {
+        let values = self.laplacian_values(kind)?.to_vec();
+        Ok(self.topology.to_csr(values))
+    }
+
+    /// Values of the mass of `kind`, if cached (see [`CachedMesh::mass_values`]).
+    pub fn cached_mass_values(&self, kind: MassKind) -> Option<&[f64]> {
+        self.masses.iter().find(|c| c.kind == kind).map(|c| &c.values[..])
+    }
+
+    /// Values of the mass of `kind`: one per vertex for lumped kinds, CSR data on the
+    /// pattern for [`MassKind::Fem`].
+    pub fn mass_values(&mut self, kind: MassKind) -> Result<&[f64]> {
+        if let Some(index) = self.masses.iter().position(|c| c.kind == kind) {
+            return Ok(&self.masses[index].values);
+        }
+        let (elements, topo, opts) = (self.elements(), &self.topology, &self.opts);
+        let cached = super::install::<S, _>(opts, || {
+            let mut m = vec![S::CornerValues::default(); self.layout.cells.len()];
+            per_element(&elements, opts, &mut m, |el| el.corner_mass(kind))?;
+            let values = mass_values::<S>(topo, kind, &m, None, vec![], opts)?;
+            match kind {
+                MassKind::Fem => finite_rows(topo.indptr(), &values)?,
+                _ => finite_vertices(&values)?,
+            }
+            Ok(Cached { kind, per_element: m, values })
+        })?;
+        self.masses.push(cached);
+        Ok(&self.masses.last().expect("just pushed").values)
+    }
+
+    /// The mass of `kind` (a copy of the cached values).
+    pub fn mass(&mut self, kind: MassKind) -> Result<Mass> {
+        let values = self.mass_values(kind)?.to_vec();
+        Ok(match kind {
+            MassKind::Fem => Mass::Consistent(self.topology.to_csr(values)),
+            _ => Mass::Lumped(values),
+        })
+    }
+
+    /// Moves the vertices to `points` (user order, same shape, finite) and refreshes every
+    /// cached operator (see [`CachedMesh::move_vertices`]).
+    pub fn update(&mut self, points: &[f64]) -> Result<Update> {
+        let moved = self.moved_vertices(points)?;
+        let dim = self.layout.dim;
+        let coords: Vec<f64> = moved.iter().flat_map(|&v| &points[v as usize * dim..][..dim]).copied().collect();
+        self.move_vertices(&moved, &coords)
+    }
+
+    /// The (user) vertices whose coordinates differ in `points` (same shape as the mesh's),
+    /// ascending.
+    pub fn moved_vertices(&self, points: &[f64]) -> Result<Vec<u32>> {
+        let (dim, current) = (self.layout.dim, &self.layout.points);
+        if points.len() != current.len() {
+            return Err(Error::Shape {
+                what: format!(
+                    "the new points have {} coordinates, the mesh has {} ({} x {dim})",
+                    points.len(),
+                    current.len(),
+                    current.len() / dim,
+                ),
+            });
+        }
+        let rank = &self.layout.rank;
+        super::install::<S, _>(&self.opts, || {
+            Ok((0..current.len() / dim)
+                .into_par_iter()
+                .filter(|&u| points[u * dim..][..dim] != current[rank[u] as usize * dim..][..dim])
+                .map(|u| u as u32)
+                .collect())
+        })
+    }
+
+    /// Moves the (user) vertices `moved` (ascending, distinct) to `coords` (`dim` values
+    /// each) and refreshes every cached operator: only the elements around them are
+    /// recomputed and only the rows of those elements' corners re-summed (beyond an eighth
+    /// of the vertices, all of them, in parallel). Degeneracy is checked by the cached
+    /// operators (with none cached yet, by the next request). On error (an element became
+    /// degenerate under [`crate::Degenerate::Raise`], a non-finite coordinate, a bad vertex
+    /// list, cancellation) nothing changes.
+    pub fn move_vertices(&mut self, moved: &[u32], coords: &[f64]) -> Result<Update> {
+        let (dim, n) = (self.layout.dim, self.n_vertices());
+        if coords.len() != moved.len() * dim {
+            return Err(Error::Shape {
+                what: format!("{} coordinates for {} vertices of dimension {dim}", coords.len(), moved.len()),
+            });
+        }
+        let bad = |k: usize| moved[k] as usize >= n || (k > 0 && moved[k - 1] >= moved[k]);
+        if let Some(position) = (0..moved.len()).find(|&k| bad(k)) {
+            return Err(Error::VertexList { position, vertex: moved[position], n_vertices: n });
+        }
+        if let Some(k) = coords.iter().position(|x| !x.is_finite()) {
+            let (vertex, coordinate) = (moved[k / dim] as usize, k % dim);
+            return Err(Error::NonFiniteCoordinate { vertex, coordinate, value: coords[k] });
+        }
+        // Patch the coordinates in place, remembering the old ones to undo a failure.
+        let internal: Vec<u32> = moved.iter().map(|&u| self.layout.rank[u as usize]).collect();
+        let span = |v: u32| v as usize * dim..(v as usize + 1) * dim;
+        let old: Vec<f64> = internal.iter().flat_map(|&v| &self.layout.points[span(v)]).copied().collect();
+        let write = |points: &mut [f64], values: &[f64]| {
+            for (&v, c) in internal.iter().zip(values.chunks_exact(dim)) {
+                points[span(v)].copy_from_slice(c);
+            }
+        };
+        write(&mut self.layout.points, coords);
+        let result = self.refresh(&internal);
+        if result.is_err() {
+            write(&mut self.layout.points, &old);
+        }
+        result
+    }
+
+    /// Recomputes the cached operators after the internal vertices `moved` changed
+    /// (coordinates already in place).
+    fn refresh(&mut self, moved: &[u32]) -> Result<Update> {
+        let n = self.n_vertices();
+        if self.laplacians.is_empty() && self.masses.is_empty() {
+            // nothing cached yet: the next request assembles from the new coordinates
+            return Ok(Update { moved_vertices: moved.len(), ..Update::default() });
+        }
+        let k = S::CORNERS;
+        let full = moved.len() > n / 8;
+        let topo = &self.topology;
+        let (mut listed, mut rows) = (Vec::new(), Vec::new());
+        if !full {
+            listed = moved.iter().flat_map(|&v| topo.corners.of(v as usize)).map(|&q| q / k as u32).collect();
+            listed.sort_unstable();
+            listed.dedup();
+            rows = listed.iter().flat_map(|&t| self.layout.cells[t as usize].as_ref().to_vec()).collect();
+            rows.sort_unstable();
+            rows.dedup();
+        }
+        let new = self.elements();
+        let opts = &self.opts;
+        let (laplacians, masses) = super::install::<S, _>(opts, || {
+            if full {
+                return self.recompute_all(&new);
+            }
+            let l = recompute(&new, opts, &listed, &self.laplacians, |el, kind| el.laplacian(kind))?;
+            let m = recompute(&new, opts, &listed, &self.masses, |el, kind| el.corner_mass(kind))?;
+            Ok((l, m))
+        })?;
+        // Nothing failed: commit, keeping what is overwritten so that a sum that overflows
+        // can be undone. (The sums run without the cancel flag: a commit is not cut short.)
+        let (topo, all) = (&self.topology, (!full).then_some(&rows[..]));
+        let only = (!full).then_some(&listed[..]);
+        let commit_opts = Options { cancel: None, ..self.opts.clone() };
+        let spans: Vec<std::ops::Range<usize>> = rows
+            .iter()
+            .map(|&v| {
+                let u = topo.vertex_of()[v as usize] as usize;
+                topo.indptr()[u]..topo.indptr()[u + 1]
+            })
+            .collect();
+        let vertex_spans: Vec<std::ops::Range<usize>> =
+            rows.iter().map(|&v| topo.vertex_of()[v as usize] as usize).map(|u| u..u + 1).collect();
+        let mut undo_l = Vec::new();
+        let mut undo_m = Vec::new();
+        let result = super::install::<S, _>(&commit_opts, || {
+            for (cached, new) in self.laplacians.iter_mut().zip(laplacians) {
+                undo_l.push(Saved::take(cached, only, &spans));
+                commit(&mut cached.per_element, only, new);
+                let values = std::mem::take(&mut cached.values);
+                cached.values = laplacian_values::<S>(topo, &cached.per_element, all, values, &commit_opts)?;
+                check_rows(topo, &cached.values, full, &spans)?;
+            }
+            for (cached, new) in self.masses.iter_mut().zip(masses) {
+                let spans = if cached.kind == MassKind::Fem { &spans } else { &vertex_spans };
+                undo_m.push((Saved::take(cached, only, spans), spans));
+                commit(&mut cached.per_element, only, new);
+                let values = std::mem::take(&mut cached.values);
+                cached.values = mass_values::<S>(topo, cached.kind, &cached.per_element, all, values, &commit_opts)?;
+                match cached.kind {
+                    MassKind::Fem => check_rows(topo, &cached.values, full, spans)?,
+                    _ => finite_vertices(&cached.values)?,
+                }
+            }
+            Ok(())
+        });
+        if let Err(e) = result {
+            for (cached, saved) in self.laplacians.iter_mut().zip(undo_l) {
+                saved.restore(cached, only, &spans);
+            }
+            for (cached, (saved, spans)) in self.masses.iter_mut().zip(undo_m) {
+                saved.restore(cached, only, spans);
+            }
+            return Err(e);
+        }
+        Ok(Update {
+            moved_vertices: moved.len(),
+            recomputed_elements: if full { self.layout.cells.len() } else { listed.len() },
+            recomputed_rows: if full { n } else { rows.len() },
+        })
+    }
+
+    /// Per-element values of every cached operator for all elements, in one pass (each
+    /// element's frame and dual are computed once for all of them).
+    #[allow(clippy::type_complexity)]
+    fn recompute_all(
+        &self,
+        elements: &Elements<S>,
+    ) -> Result<(Vec<Vec<S::EdgeValues>>, Vec<Vec<S::CornerValues>>)> {
+        let m = self.layout.cells.len();
+        let mut l_new: Vec<Vec<S::EdgeValues>> = self.laplacians.iter().map(|_| vec![Default::default(); m]).collect();
+        let mut m_new: Vec<Vec<S::CornerValues>> = self.masses.iter().map(|_| vec![Default::default(); m]).collect();
+        let l_kinds: Vec<_> = self.laplacians.iter().map(|c| c.kind).collect();
+        let m_kinds: Vec<_> = self.masses.iter().map(|c| c.kind).collect();
+        let n_chunks = m.div_ceil(CHUNK);
+        let chunks = chunk_lists(&mut l_new, n_chunks).into_par_iter().zip(chunk_lists(&mut m_new, n_chunks));
+        let fault = chunked(elements, &self.opts, chunks, |c, (mut ls, mut ms), scratch, faults| {
+            for k in 0..CHUNK.min(m - c * CHUNK) {
+                let t = c * CHUNK + k;
+                let el = elements.get(t, scratch);
+                // a faulty element keeps the zeros of the fresh buffer (the Skip policy)
+                let mut fault = None;
+                for (out, &kind) in ls.iter_mut().zip(&l_kinds) {
+                    el.laplacian(kind).map(|v| out[k] = v).unwrap_or_else(|f| fault = fault.or(Some(f)));
+                }
+                for (out, &kind) in ms.iter_mut().zip(&m_kinds) {
+                    el.corner_mass(kind).map(|v| out[k] = v).unwrap_or_else(|f| fault = fault.or(Some(f)));
+                }
+                if let Some(fault) = fault {
+                    faults.record(elements, t, fault);
+                }
+            }
+        })?;
+        fault.into_result(self.opts.degenerate)?;
+        Ok((l_new, m_new))
+    }
+}
+
+/// What a commit overwrites in one cached operator: everything (a full refresh: moved out,
+/// not copied) or the listed elements' values and the data of the recomputed rows.
+enum Saved<T> {
+    Full(Vec<T>, Vec<f64>),
+    Partial(Vec<T>, Vec<f64>),
+}
+
+impl<T: Copy> Saved<T> {
+    /// Takes (full) or copies (partial) what committing `listed` overwrites in `cached`.
+    fn take<K>(cached: &mut Cached<K, T>, listed: Option<&[u32]>, spans: &[Range<usize>]) -> Self {
+        match listed {
+            None => Saved::Full(std::mem::take(&mut cached.per_element), std::mem::take(&mut cached.values)),
+            Some(listed) => Saved::Partial(
+                listed.iter().map(|&t| cached.per_element[t as usize]).collect(),
+                spans.iter().flat_map(|r| cached.values[r.clone()].iter().copied()).collect(),
+            ),
+        }
+    }
+
+    /// Puts back what [`Saved::take`] saved.
+    fn restore<K>(self, cached: &mut Cached<K, T>, listed: Option<&[u32]>, spans: &[Range<usize>]) {
+        match self {
+            Saved::Full(per_element, values) => {
+                cached.per_element = per_element;
+                cached.values = values;
+            }
+            Saved::Partial(per_element, values) => {
+                for (&t, v) in listed.unwrap_or_default().iter().zip(per_element) {
+                    cached.per_element[t as usize] = v;
+                }
+                let slots = spans.iter().flat_map(|r| r.clone());
+                for (k, v) in slots.zip(values) {
+                    cached.values[k] = v;
+                }
+            }
+        }
+    }
+}
+
+/// [`Error::SumOverflow`] for the first recomputed row with a value that is not finite.
+fn check_rows(topo: &Topology, values: &[f64], full: bool, spans: &[std::ops::Range<usize>]) -> Result<()> {
+    if full {
+        return finite_rows(topo.indptr(), values);
+    }
+    for span in spans {
+        if values[span.clone()].iter().any(|x| !x.is_finite()) {
+            let vertex = topo.indptr().partition_point(|&p| p <= span.start) - 1;
+            return Err(Error::SumOverflow { vertex });
+        }
+    }
+    Ok(())
+}
+
+/// [`Error::SumOverflow`] for the first vertex whose lumped mass is not finite.
+fn finite_vertices(values: &[f64]) -> Result<()> {
+    match values.iter().position(|x| !x.is_finite()) {
+        Some(vertex) => Err(Error::SumOverflow { vertex }),
+        None => Ok(()),
+    }
+}
+
+/// New per-element values of every cached operator for the listed elements.
+fn recompute<S: Simplex, K: Copy + Sync, T: Default + Send + Sync>(
+    elements: &Elements<S>,
+    opts: &Options,
+    listed: &[u32],
+    cached: &[Cached<K, T>],
+    f: impl Fn(&Element<S>, K) -> std::result::Result<T, Fault> + Sync,
+) -> Result<Vec<Vec<T>>> {
+    cached.iter().map(|c| per_element_subset(elements, opts, listed, |el| f(el, c.kind))).collect()
+}
+
+/// The [`CHUNK`]-element chunks of every cache, gathered per chunk.
+fn chunk_lists<T>(caches: &mut [Vec<T>], n_chunks: usize) -> Vec<Vec<&mut [T]>> {
+    let mut chunks: Vec<Vec<&mut [T]>> = (0..n_chunks).map(|_| Vec::new()).collect();
+    for v in caches.iter_mut() {
+        for (c, part) in v.chunks_mut(CHUNK).enumerate() {
+            chunks[c].push(part);
+        }
+    }
+    chunks
+}
+
+/// Stores new per-element values: all of them (`listed = None`) or those of the listed
+/// elements.
+fn commit<T: Copy>(per_element: &mut Vec<T>, listed: Option<&[u32]>, new: Vec<T>) {
+    match listed {
+        None => *per_element = new,
+        Some(listed) => {
+            for (&t, v) in listed.iter().zip(new) {
+                per_element[t as usize] = v;
+            }
+        }
+    }
+}

@@ -1,0 +1,34 @@
+//! **Assembly**: the drivers that turn per-element values into operators.
+//!
+//! * `order`: the internal locality order (Morton vertices, elements by first vertex);
+//! * `pattern`: the symbolic step, rows of the CSR pattern and the slot map;
+//! * `pass`: the parallel per-element pass and its faults;
+//! * `scatter`: per-element values summed onto rows and vertices in a fixed order;
+//! * `one_shot`: the public one-shot API; `cached`: [`CachedMesh`], local updates;
+//! * `vjp`: derivatives of the operators with respect to the mesh.
+
+pub(crate) mod cached;
+pub(crate) mod one_shot;
+pub(crate) mod order;
+pub(crate) mod pass;
+pub(crate) mod pattern;
+pub(crate) mod scatter;
+pub mod vjp;
+
+pub use cached::{CachedMesh, Update};
+pub use one_shot::{contributions, edge_weights, laplacian, mass, operators, triplets};
+pub(crate) use pass::CHUNK;
+pub use pattern::Topology;
+
+use crate::element::Simplex;
+use crate::error::{Error, Feature, Result};
+use crate::options::{Boundary, Options};
+
+/// Runs `f` on the options' threads after checking that meshes of `S` support them (the
+/// barycentric boundary treatment is for tets only).
+pub(crate) fn install<S: Simplex, R: Send>(opts: &Options, f: impl FnOnce() -> Result<R> + Send) -> Result<R> {
+    if opts.boundary == Boundary::Barycentric && !S::WEIGHTED_DUAL {
+        return Err(Error::Unsupported { option: Feature::BarycentricBoundary, element: S::NAME });
+    }
+    opts.install(f)
+}

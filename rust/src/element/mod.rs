@@ -1,0 +1,22 @@
+//! **Elements**: one element's coordinates in, its values out.
+//!
+//! The lowest layer of the crate: pure functions of one element (no indices, no threads, no
+//! allocation) and the rule that decides whether an element's values can be trusted.
+//!
+//! * [`frame`]: an element's coordinates in its own space, scaled by a power of two;
+//! * [`tet`]: the kernels of one tet (primal, dual, power-diagram dual, masses, quality)
+//!   and their reverse derivatives ([`tet::derivatives`]);
+//! * [`tri`]: the kernels of one triangle;
+//! * [`Simplex`]: what the drivers need to know about an element kind ([`Tet`], [`Tri`]).
+
+pub mod frame;
+pub mod tet;
+pub mod tri;
+
+mod evaluate;
+mod simplex;
+
+pub(crate) use evaluate::{Element, Fault};
+pub use frame::{local_tet, local_tri, LocalTet, LocalTri};
+pub(crate) use simplex::edge_index;
+pub use simplex::{Simplex, Tet, Tri, Values};

@@ -1,0 +1,208 @@
+//! The kinds of element: what the drivers need to know about tetrahedra and triangles.
+//!
+//! Every driver of the crate (validation, the per-element pass, the row layout, the
+//! assembly, the cached mesh) is written once, generic over [`Simplex`]; the two
+//! implementations below only say how many corners and which edges an element has and
+//! which kernels of [`super::tet`] and [`super::tri`] compute its contributions.
+
+use super::frame::{local_tet, local_tri, LocalTet, LocalTri};
+use super::{tet, tri};
+use std::fmt::Debug;
+
+/// Fixed-size per-element values (`[f64; K]`): edge weights or corner masses.
+pub trait Values:
+    Copy + Default + Debug + PartialEq + Send + Sync + AsRef<[f64]> + AsMut<[f64]> + 'static
+{
+}
+
+impl<const K: usize> Values for [f64; K] where [f64; K]: Default {}
+
+/// A kind of simplex with its local kernels.
+///
+/// Local edge order: the pairs of corners in lexicographic order, [`Simplex::EDGES`].
+pub trait Simplex: Copy + Debug + Default + Send + Sync + 'static {
+    /// Corners per element: 4 for tets, 3 for triangles.
+    const CORNERS: usize;
+    /// The local edges as pairs of corners, lexicographic.
+    const EDGES: &'static [(usize, usize)];
+    /// The smallest ambient dimension (3 for tets, 2 for triangles).
+    const MIN_DIM: usize;
+    /// A name for messages ("tet", "triangle").
+    const NAME: &'static str;
+    /// The consistent P1 mass is `measure / FEM.0` off the diagonal, `measure / FEM.1` on it.
+    const FEM: (f64, f64);
+    /// Whether the dual takes vertex weights and the barycentric boundary treatment.
+    const WEIGHTED_DUAL: bool;
+
+    /// The vertex indices of one element, `[u32; CORNERS]`.
+    type Cell: Copy + Default + Debug + PartialEq + Send + Sync + AsRef<[u32]> + AsMut<[u32]>;
+    /// One value per local edge, `[f64; EDGES.len()]`.
+    type EdgeValues: Values;
+    /// One value per corner, `[f64; CORNERS]`.
+    type CornerValues: Values;
+    /// One element as its kernels see it (a scaled local frame).
+    type Local: Copy + Send + Sync;
+
+    /// The element `cell` of `points` (row-major, `dim` columns) in its local frame;
+    /// `scratch` holds [`Simplex::scratch_len`] values.
+    fn local(points: &[f64], dim: usize, cell: &Self::Cell, scratch: &mut [f64]) -> Self::Local;
+    /// Scratch length for [`Simplex::local`] in `dim` dimensions.
+    fn scratch_len(dim: usize) -> usize;
+    /// Whether the corners are affinely dependent (zero measure).
+    fn is_degenerate(l: &Self::Local) -> bool;
+    /// Unsigned volume (area) in the caller's units.
+    fn measure(l: &Self::Local) -> f64;
+    /// Primal (P1 FEM / cotan) edge weights.
+    fn primal(l: &Self::Local) -> Self::EdgeValues;
+    /// Barycentric corner masses.
+    fn barycentric(l: &Self::Local) -> Self::CornerValues;
+    /// Dual edge weights and dual-cell volumes (circumcentric corner masses), weighted by
+    /// the corners' vertex weights and with the barycentric boundary fix if asked (only
+    /// when [`Simplex::WEIGHTED_DUAL`]).
+    fn dual(
+        l: &Self::Local,
+        weights: Option<&Self::CornerValues>,
+        fix_boundary: bool,
+    ) -> (Self::EdgeValues, Self::CornerValues);
+}
+
+/// Tetrahedra (in R^3 or immersed in R^d, d > 3).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Tet;
+
+/// Triangles (in R^2 or immersed in R^d, d > 2), where primal and dual coincide.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Tri;
+
+/// The coordinates of the corners of `cell`.
+fn corners<'p, const K: usize>(points: &'p [f64], dim: usize, cell: &[u32; K]) -> [&'p [f64]; K] {
+    cell.map(|v| {
+        let i = v as usize * dim;
+        &points[i..i + dim]
+    })
+}
+
+impl Simplex for Tet {
+    const CORNERS: usize = 4;
+    const EDGES: &'static [(usize, usize)] = &tet::EDGES;
+    const MIN_DIM: usize = 3;
+    const NAME: &'static str = "tet";
+    const FEM: (f64, f64) = (20.0, 10.0);
+    const WEIGHTED_DUAL: bool = true;
+
+    type Cell = [u32; 4];
+    type EdgeValues = [f64; 6];
+    type CornerValues = [f64; 4];
+    type Local = LocalTet;
+
+    fn local(points: &[f64], dim: usize, cell: &[u32; 4], scratch: &mut [f64]) -> LocalTet {
+        local_tet(corners(points, dim, cell), scratch)
+    }
+
+    fn scratch_len(dim: usize) -> usize {
+        if dim > 3 { 3 * dim } else { 0 }
+    }
+
+    fn is_degenerate(l: &LocalTet) -> bool {
+        tet::is_degenerate(l)
+    }
+
+    fn measure(l: &LocalTet) -> f64 {
+        tet::volume(l)
+    }
+
+    fn primal(l: &LocalTet) -> [f64; 6] {
+        tet::primal_weights(l)
+    }
+
+    fn barycentric(l: &LocalTet) -> [f64; 4] {
+        tet::barycentric_mass(l)
+    }
+
+    fn dual(l: &LocalTet, weights: Option<&[f64; 4]>, fix_boundary: bool) -> ([f64; 6], [f64; 4]) {
+        if weights.is_none() && !fix_boundary {
+            let d = tet::dual(l);
+            return (d.weights, d.cell_volumes);
+        }
+        let d = tet::power_dual(l, weights, fix_boundary);
+        (d.weights, d.cell_volumes)
+    }
+}
+
+impl Simplex for Tri {
+    const CORNERS: usize = 3;
+    const EDGES: &'static [(usize, usize)] = &tri::EDGES;
+    const MIN_DIM: usize = 2;
+    const NAME: &'static str = "triangle";
+    const FEM: (f64, f64) = (12.0, 6.0);
+    const WEIGHTED_DUAL: bool = false;
+
+    type Cell = [u32; 3];
+    type EdgeValues = [f64; 3];
+    type CornerValues = [f64; 3];
+    type Local = LocalTri;
+
+    fn local(points: &[f64], dim: usize, cell: &[u32; 3], _: &mut [f64]) -> LocalTri {
+        local_tri(corners(points, dim, cell))
+    }
+
+    fn scratch_len(_: usize) -> usize {
+        0
+    }
+
+    fn is_degenerate(l: &LocalTri) -> bool {
+        tri::is_degenerate(l)
+    }
+
+    fn measure(l: &LocalTri) -> f64 {
+        tri::area(l)
+    }
+
+    fn primal(l: &LocalTri) -> [f64; 3] {
+        tri::cotan_weights(l)
+    }
+
+    fn barycentric(l: &LocalTri) -> [f64; 3] {
+        [tri::area(l) / 3.0; 3]
+    }
+
+    fn dual(l: &LocalTri, _: Option<&[f64; 3]>, _: bool) -> ([f64; 3], [f64; 3]) {
+        tri::dual(l)
+    }
+}
+
+/// Local edge index of corners `(a, b)`, `a != b`, of a simplex with `k` corners: edges in
+/// lexicographic order.
+#[inline]
+pub(crate) const fn edge_index(k: usize, a: usize, b: usize) -> usize {
+    let (a, b) = if a < b { (a, b) } else { (b, a) };
+    a * (2 * k - a - 1) / 2 + (b - a - 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn edges_are_lexicographic<S: Simplex>() {
+        let mut expected = vec![];
+        for a in 0..S::CORNERS {
+            for b in a + 1..S::CORNERS {
+                expected.push((a, b));
+            }
+        }
+        assert_eq!(S::EDGES, &expected[..]);
+        for (e, &(a, b)) in S::EDGES.iter().enumerate() {
+            assert_eq!(edge_index(S::CORNERS, a, b), e);
+            assert_eq!(edge_index(S::CORNERS, b, a), e);
+        }
+        assert_eq!(S::EdgeValues::default().as_ref().len(), S::EDGES.len());
+        assert_eq!(S::CornerValues::default().as_ref().len(), S::CORNERS);
+        assert_eq!(S::Cell::default().as_ref().len(), S::CORNERS);
+    }
+
+    #[test]
+    fn local_edge_orders() {
+        edges_are_lexicographic::<Tet>();
+        edges_are_lexicographic::<Tri>();
+    }
+}

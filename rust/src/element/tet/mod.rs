@@ -1,0 +1,94 @@
+//! Kernels of one tet: pure functions of its coordinates (a [`LocalTet`]) returning its
+//! contributions to the six edges and four vertices. No indices, no threads, no allocation.
+//!
+//! Local edge order: `(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)`; [`EDGES`].
+//! Sign convention (paper Eq. 1): a weight `w_ij` is the off-diagonal `L[i, j]`; positive on
+//! well-shaped tets.
+
+mod careful;
+pub mod derivatives;
+mod dual;
+mod mass;
+mod power;
+mod primal;
+mod quality;
+
+pub use dual::{dual, Dual};
+pub use mass::barycentric_mass;
+pub use power::{dual_from_centers, power_dual, Centers};
+pub use primal::primal_weights;
+pub use quality::{inside_circumsphere, tet_quality, TetQuality, DELAUNAY_RTOL};
+
+use super::frame::LocalTet;
+use glam::DVec3;
+
+/// The six edges of a tet in local order, as pairs of corners.
+pub const EDGES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
+
+/// The three corners of the face opposite corner `l`, ascending.
+pub const FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]];
+
+/// For local edge `e = (a, b)`, the other two corners `(k, l)` with `k < l`.
+pub const OPPOSITE: [(usize, usize); 6] = [(2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1)];
+
+/// Quantities of one tet shared by the kernels.
+///
+/// `normals[l]` is the cross product of the two edges of the face opposite corner `l`,
+/// oriented so that `normals[l] / det` is the gradient of the barycentric coordinate
+/// `lambda_l`; `det = 6 * signed volume`. `|normals[l]| = 2 * area(face l)`.
+pub(crate) struct Frame {
+    pub x: [DVec3; 4],
+    pub normals: [DVec3; 4],
+    pub det: f64,
+}
+
+impl Frame {
+    pub fn new(t: &LocalTet) -> Self {
+        let [e1, e2, e3] = t.edges;
+        let normals = [(e3 - e1).cross(e2 - e1), e2.cross(e3), e3.cross(e1), e1.cross(e2)];
+        Frame { x: [DVec3::ZERO, e1, e2, e3], normals, det: e1.dot(normals[1]) }
+    }
+}
+
+/// Whether the tet's corners are affinely dependent (zero determinant, in the scaled frame
+/// so that tiny tets are not mistaken for flat ones).
+pub fn is_degenerate(t: &LocalTet) -> bool {
+    let [e1, e2, e3] = t.edges;
+    e1.dot(e2.cross(e3)) == 0.0
+}
+
+/// Unsigned volume of the tet (`|det[x1-x0, x2-x0, x3-x0]| / 6`), in the caller's units.
+///
+/// Exactly zero for a degenerate tet (affinely dependent corners), up to rounding of the
+/// determinant.
+pub fn volume(t: &LocalTet) -> f64 {
+    let [e1, e2, e3] = t.edges;
+    e1.dot(e2.cross(e3)).abs() / 6.0 * t.scale * t.scale * t.scale
+}
+
+#[cfg(test)]
+pub(crate) mod test_tets {
+    use crate::element::frame::{local_tet, LocalTet};
+
+    pub fn tet(x: [[f64; 3]; 4]) -> LocalTet {
+        local_tet([&x[0], &x[1], &x[2], &x[3]], &mut [])
+    }
+
+    pub fn regular() -> LocalTet {
+        let s = 1.0 / 8f64.sqrt(); // edge length 1
+        tet([[s, s, s], [s, -s, -s], [-s, s, -s], [-s, -s, s]])
+    }
+
+    pub fn corner() -> LocalTet {
+        tet([[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]])
+    }
+
+    /// Row 0 of the 4 x 4 Laplacian of one tet from its six weights.
+    pub fn row0(w: [f64; 6]) -> [f64; 4] {
+        [-(w[0] + w[1] + w[2]), w[0], w[1], w[2]]
+    }
+
+    pub fn close(a: &[f64], b: &[f64], tol: f64) -> bool {
+        a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol)
+    }
+}

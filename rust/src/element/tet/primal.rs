@@ -1,0 +1,61 @@
+//! Primal (P1 FEM / cotan) weights of one tet, paper Eq. 7.
+
+use super::{Frame, EDGES};
+use crate::element::frame::LocalTet;
+
+/// The six primal weights of one tet: `w_ab = |x_k - x_l| cot(theta_kl) / 6` for edge `ab`
+/// with opposite edge `kl` and dihedral angle `theta_kl` there.
+///
+/// Computed as minus the P1 stiffness `Vol * grad(lambda_a) . grad(lambda_b)`
+/// `= -(n_a . n_b) / (6 |det|)`, with `n_a` the (unnormalised) face normals. Independent of
+/// the tet's orientation. Infinite or NaN for a degenerate tet (the caller checks). A tet
+/// with faces too small for these products (a needle) goes through cotangents of unit
+/// vectors instead, `|x_k - x_l| cot(theta_kl) / 6`, with the same precision.
+///
+/// ```
+/// // The corner tet: the three edges at the right-angled corner get 1/6, the others 0.
+/// let x = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+/// let t = tetlap::local_tet([&x[0], &x[1], &x[2], &x[3]], &mut []);
+/// let w = tetlap::element::tet::primal_weights(&t);
+/// assert!((w[0] - 1.0 / 6.0).abs() < 1e-15 && w[5].abs() < 1e-15);
+/// ```
+pub fn primal_weights(t: &LocalTet) -> [f64; 6] {
+    let f = Frame::new(t);
+    if super::careful::is_extreme(&f) {
+        return super::careful::primal_weights(t);
+    }
+    let k = -t.scale / (6.0 * f.det.abs());
+    EDGES.map(|(a, b)| f.normals[a].dot(f.normals[b]) * k)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::element::tet::test_tets::*;
+
+    #[test]
+    fn golden_regular_tet() {
+        let w = primal_weights(&regular());
+        assert!(close(&row0(w), &[-0.176777, 0.058926, 0.058926, 0.058926], 1e-6));
+    }
+
+    #[test]
+    fn golden_corner_tet() {
+        let w = primal_weights(&corner());
+        let s = 1.0 / 6.0;
+        assert!(close(&row0(w), &[-0.5, s, s, s], 1e-15));
+        // the edges of the slanted face meet the corner's right dihedral angles: weight 0
+        assert!(close(&w[3..], &[0.0; 3], 1e-15));
+    }
+
+    #[test]
+    fn orientation_does_not_matter() {
+        let a = primal_weights(&tet([[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0.2, 0.3, 1.]]));
+        let b = primal_weights(&tet([[0., 0., 0.], [0., 1., 0.], [1., 0., 0.], [0.2, 0.3, 1.]]));
+        // swapping corners 1 and 2 maps edges (0,1)<->(0,2), (1,3)<->(2,3); (0,3), (1,2) stay
+        let perm = [1, 0, 2, 3, 5, 4];
+        for e in 0..6 {
+            assert!((a[e] - b[perm[e]]).abs() < 1e-15);
+        }
+    }
+}
