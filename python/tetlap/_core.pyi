@@ -1,65 +1,60 @@
 # Private native module (Rust, PyO3). Public API: tetlap.assembly and tetlap.mesh.
 # Inputs: points (n, d) C-contiguous float64, cells (m, 4) tets or (m, 3) triangles,
-# C-contiguous int64 (validated in the core). Options are parsed here into the core's
-# types: kind "primal" | "dual" | a real t in [0, 1]; mass kind "barycentric" |
-# "circumcentric" | "fem"; boundary "circumcentric" | "barycentric"; degenerate "raise" |
-# "skip"; threads None or 1..MAX_THREADS; anything else raises tetlap.OptionError.
-# CSR triples are (data float64, indices uint32 (< 2^31), indptr int32|int64).
+# C-contiguous int64 (validated in the core). Options are one dict (any of "boundary":
+# "circumcentric" | "barycentric", "degenerate": "raise" | "skip", "threads": None or
+# 1..MAX_THREADS), parsed here into the core's types and checked by the core; kinds are
+# "primal" | "dual" | a real t in [0, 1], mass kinds "barycentric" | "circumcentric" |
+# "fem"; anything else raises tetlap.OptionError.
+# Sparse outputs are CSR triples (data float64, indices uint32 (< 2^31), indptr
+# int32|int64); sparse inputs are (data float64, indices int64, indptr int64).
 from typing import Literal, final
 
 import numpy as np
 import numpy.typing as npt
 from typing_extensions import Self
 
-__all__ = ["laplacian", "mass", "operators", "contributions", "triplets", "edge_weights",
-           "vjp", "Mesh", "MAX_THREADS", "DELAUNAY_RTOL", "MAX_GROUP", "faces", "duplicates", "edges",
-           "quality", "non_delaunay", "check_operator", "negative_semidefinite",
-           "element_certificate"]
+__all__ = ["assemble", "check_options", "vjp", "Mesh", "MAX_THREADS", "DELAUNAY_RTOL",
+           "MAX_GROUP", "faces", "duplicates", "edges", "quality", "non_delaunay",
+           "check_operator", "negative_semidefinite", "element_certificate"]
 
 MAX_THREADS: int
 DELAUNAY_RTOL: float
 MAX_GROUP: int
 
 _F64 = npt.NDArray[np.float64]
+_I64 = npt.NDArray[np.int64]
 _Idx = npt.NDArray[np.int32] | npt.NDArray[np.int64]
 _CsrArrays = tuple[_F64, npt.NDArray[np.uint32], _Idx]
+_CsrInput = tuple[_F64, _I64, _I64]
 _MassArrays = tuple[Literal["lumped"], _F64] | tuple[Literal["csr"], _CsrArrays]
 _Cells = npt.NDArray[np.int64]
 _Kind = str | float
+_Options = dict[str, str | int | None] | None
+_Request = (tuple[Literal["laplacian", "contributions", "triplets", "edge_weights"], _Kind]
+            | tuple[Literal["mass"], str] | tuple[Literal["operators"], _Kind, str])
 
-def laplacian(points: _F64, cells: _Cells, kind: _Kind, *, weights: _F64 | None = None,
-              boundary: str = ..., degenerate: str = ...,
-              threads: int | None = ...) -> _CsrArrays: ...
-def mass(points: _F64, cells: _Cells, kind: str, *, weights: _F64 | None = None,
-         boundary: str = ..., degenerate: str = ..., threads: int | None = ...) -> _MassArrays: ...
-def operators(points: _F64, cells: _Cells, laplacian: _Kind, mass: str, *,
-              weights: _F64 | None = None, boundary: str = ..., degenerate: str = ...,
-              threads: int | None = ...) -> tuple[_CsrArrays, _MassArrays]: ...
-def contributions(points: _F64, cells: _Cells, kind: _Kind, *, weights: _F64 | None = None,
-                  boundary: str = ..., degenerate: str = ...,
-                  threads: int | None = ...) -> _F64: ...
-def triplets(points: _F64, cells: _Cells, kind: _Kind, *, weights: _F64 | None = None,
-             boundary: str = ..., degenerate: str = ..., threads: int | None = ...
-             ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], _F64]: ...
-def edge_weights(points: _F64, cells: _Cells, kind: _Kind, *, weights: _F64 | None = None,
-                 boundary: str = ..., degenerate: str = ..., threads: int | None = ...
-                 ) -> tuple[npt.NDArray[np.int64], _F64]: ...
+# ("laplacian", kind) -> _CsrArrays; ("mass", kind) -> _MassArrays; ("operators", kind,
+# mass) -> (_CsrArrays, _MassArrays); ("contributions", kind) -> (m, 6) | (m, 3) float64;
+# ("triplets", kind) -> (rows int64, cols int64, vals); ("edge_weights", kind) ->
+# (edges (E, 2) int64, weights (E,)).
+def assemble(points: _F64, cells: _Cells, request: _Request, *, weights: _F64 | None = None,
+             options: _Options = None) -> object: ...
+def check_options(options: _Options) -> None: ...
 
-# Cotangents of vjp: on L ("elements", (m, 6)) | ("matrix", (indptr int64, indices int64,
-# data)) | ("quadratic", (n, k)); on M ("diagonal", (n,)) | ("matrix", ...) | ("quadratic", ...).
-_SparseCot = tuple[Literal["matrix"], tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], _F64]]
+# Cotangents of vjp: on L ("elements", (m, 6)) | ("matrix", _CsrInput) | ("quadratic",
+# (n, k)); on M ("diagonal", (n,)) | ("matrix", ...) | ("quadratic", ...).
+_SparseCot = tuple[Literal["matrix"], _CsrInput]
 _LapCot = tuple[Literal["elements", "quadratic"], _F64] | _SparseCot
 _MassCot = tuple[Literal["diagonal", "quadratic"], _F64] | _SparseCot
 
 def vjp(points: _F64, cells: _Cells, laplacian: _Kind | None, mass: str | None, *,
         dl: _LapCot | None = None, dm: _MassCot | None = None, weights: _F64 | None = None,
-        boundary: str = ..., degenerate: str = ..., threads: int | None = ...
-        ) -> tuple[_F64, _F64 | None, float]: ...
+        options: _Options = None) -> tuple[_F64, _F64 | None, float]: ...
 
 @final
 class Mesh:
     def __new__(cls, points: _F64, cells: _Cells, *, weights: _F64 | None = None,
-                boundary: str = ..., degenerate: str = ..., threads: int | None = ...) -> Self: ...
+                options: _Options = None) -> Self: ...
     def pattern(self) -> tuple[npt.NDArray[np.uint32], _Idx]: ...
     def laplacian(self, kind: _Kind) -> _F64: ...
     def mass(self, kind: str) -> _F64: ...
@@ -67,22 +62,19 @@ class Mesh:
     def points(self) -> _F64: ...
     def cells(self) -> npt.NDArray[np.int64]: ...
 
-_I64 = npt.NDArray[np.int64]
-
 # Diagnostics (topology: cells over n vertices; geometry: tets in R^3 or R^d).
-def faces(cells: _Cells, n: int, *, threads: int | None = ...) -> tuple[_I64, _I64, _I64]: ...
-def duplicates(cells: _Cells, n: int, *, threads: int | None = ...) -> npt.NDArray[np.bool_]: ...
-def edges(cells: _Cells, n: int, *, threads: int | None = ...) -> _I64: ...
-def quality(points: _F64, cells: _Cells, *, threads: int | None = ...
+def faces(cells: _Cells, n: int, *, options: _Options = None) -> tuple[_I64, _I64, _I64]: ...
+def duplicates(cells: _Cells, n: int, *, options: _Options = None) -> npt.NDArray[np.bool_]: ...
+def edges(cells: _Cells, n: int, *, options: _Options = None) -> _I64: ...
+def quality(points: _F64, cells: _Cells, *, options: _Options = None
             ) -> tuple[_F64, _F64, npt.NDArray[np.bool_]]: ...
 def non_delaunay(points: _F64, cells: _Cells, interior: _I64, rtol: float, *,
-                 threads: int | None = ...) -> npt.NDArray[np.bool_]: ...
-def check_operator(points: _F64, cells: _Cells, data: _F64, indices: _I64, indptr: _I64,
-                   boundary: npt.NDArray[np.bool_], negative_tol: float, *,
-                   threads: int | None = ...) -> dict[str, bool | int | float | None]: ...
-def negative_semidefinite(n: int, data: _F64, indices: _I64, indptr: _I64, tol: float, *,
-                          threads: int | None = ...
+                 options: _Options = None) -> npt.NDArray[np.bool_]: ...
+def check_operator(points: _F64, cells: _Cells, l: _CsrInput, boundary: npt.NDArray[np.bool_],
+                   negative_tol: float, *, options: _Options = None
+                   ) -> dict[str, bool | int | float | None]: ...
+def negative_semidefinite(n: int, l: _CsrInput, tol: float, *, options: _Options = None
                           ) -> tuple[bool | None, str, dict[str, int | float]]: ...
 def element_certificate(cells: _Cells, n: int, weights: _F64, tol: float, *,
-                        threads: int | None = ...
+                        options: _Options = None
                         ) -> tuple[Literal[True] | None, str, dict[str, int | float]]: ...

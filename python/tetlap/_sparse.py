@@ -26,3 +26,10 @@ def mass(result, n: int) -> sp.csr_array:
     if form == "lumped":
         return sp.diags_array(arrays, format="csr")
     return csr(arrays, n)
+
+
+def arrays(A: sp.csr_array):
+    """``(data float64, indices int64, indptr int64)`` of a CSR matrix, as the core reads a
+    sparse input (``_core``'s one CSR reader)."""
+    return (np.ascontiguousarray(A.data, dtype=np.float64), A.indices.astype(np.int64),
+            A.indptr.astype(np.int64))

@@ -26,6 +26,11 @@ __all__ = [
 ]
 
 
+def _options(boundary, degenerate, threads) -> dict:
+    """The keyword options as the core takes them (it parses and checks them, once)."""
+    return {"boundary": boundary, "degenerate": degenerate, "threads": threads}
+
+
 def _inputs(V, T, weights):
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
@@ -64,8 +69,8 @@ def laplacian(V, T=None, kind="primal", *, boundary="circumcentric", weights=Non
     array([[-0.75,  0.25,  0.25,  0.25]])
     """
     V, T, w = _inputs(V, T, weights)
-    arrays = _core.laplacian(V, T, kind, weights=w, boundary=boundary, degenerate=degenerate,
-                             threads=threads)
+    arrays = _core.assemble(V, T, ("laplacian", kind), weights=w,
+                            options=_options(boundary, degenerate, threads))
     return _sparse.csr(arrays, V.shape[0])
 
 
@@ -97,8 +102,8 @@ def mass(V, T=None, kind="barycentric", *, boundary="circumcentric", weights=Non
     array([9., 1., 1., 1.])
     """
     V, T, w = _inputs(V, T, weights)
-    result = _core.mass(V, T, kind, weights=w, boundary=boundary, degenerate=degenerate,
-                        threads=threads)
+    result = _core.assemble(V, T, ("mass", kind), weights=w,
+                            options=_options(boundary, degenerate, threads))
     return _sparse.mass(result, V.shape[0])
 
 
@@ -135,8 +140,8 @@ def operators(V, T=None, laplacian="primal", mass="barycentric", *, boundary="ci
     1.0
     """
     V, T, w = _inputs(V, T, weights)
-    L, M = _core.operators(V, T, laplacian, mass, weights=w, boundary=boundary,
-                           degenerate=degenerate, threads=threads)
+    L, M = _core.assemble(V, T, ("operators", laplacian, mass), weights=w,
+                          options=_options(boundary, degenerate, threads))
     n = V.shape[0]
     return _sparse.csr(L, n), _sparse.mass(M, n)
 
@@ -182,8 +187,8 @@ def triplets(V, T=None, kind="primal", *, boundary="circumcentric", weights=None
     True
     """
     V, T, w = _inputs(V, T, weights)
-    rows, cols, vals = _core.triplets(V, T, kind, weights=w, boundary=boundary,
-                                      degenerate=degenerate, threads=threads)
+    rows, cols, vals = _core.assemble(V, T, ("triplets", kind), weights=w,
+                                      options=_options(boundary, degenerate, threads))
     n = V.shape[0]
     return Triplets(rows, cols, vals, (n, n))
 
@@ -217,8 +222,8 @@ def edge_weights(V, T=None, kind="primal", *, boundary="circumcentric", weights=
     ([0, 1], 0.25)
     """
     V, T, w = _inputs(V, T, weights)
-    return _core.edge_weights(V, T, kind, weights=w, boundary=boundary, degenerate=degenerate,
-                              threads=threads)
+    return _core.assemble(V, T, ("edge_weights", kind), weights=w,
+                          options=_options(boundary, degenerate, threads))
 
 
 @shared_docs
@@ -249,5 +254,5 @@ def tet_contributions(V, T=None, kind="primal", *, boundary="circumcentric", wei
     array([[1., 1., 1., 0., 0., 0.]])
     """
     V, T, w = _inputs(V, T, weights)
-    return _core.contributions(V, T, kind, weights=w, boundary=boundary, degenerate=degenerate,
-                               threads=threads)
+    return _core.assemble(V, T, ("contributions", kind), weights=w,
+                          options=_options(boundary, degenerate, threads))

@@ -26,7 +26,8 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
-from . import _arrays, _core
+from . import _arrays, _core, _sparse
+from .assembly import _options
 from ._docs import shared_docs
 from .errors import DtypeError, ShapeError
 
@@ -53,7 +54,7 @@ def _real(x, name: str) -> np.ndarray:
 
 
 def _csr(A, n: int, name: str):
-    """``("matrix", (indptr, indices, data))`` of a SciPy sparse (n, n) matrix, canonical
+    """``("matrix", (data, indices, indptr))`` of a SciPy sparse (n, n) matrix, canonical
     (duplicates summed, sorted), without touching ``A``."""
     if A.shape != (n, n):
         raise ShapeError(f"{name} must have shape ({n}, {n}), got {A.shape}")
@@ -63,8 +64,7 @@ def _csr(A, n: int, name: str):
     if not A.has_canonical_format:
         A = A.copy()
         A.sum_duplicates()
-    return ("matrix", (A.indptr.astype(np.int64), A.indices.astype(np.int64),
-                       np.ascontiguousarray(A.data, dtype=np.float64)))
+    return ("matrix", _sparse.arrays(A))
 
 
 def _edge_csr(edges, dw, n: int):
@@ -190,7 +190,7 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     dl = _laplacian_cotangent(dL, n, m)
     dm = _mass_cotangent(dM, n)
     dV, dweights, value = _core.vjp(V, T, kind, mass, dl=dl, dm=dm, weights=w,
-                                    boundary=boundary, degenerate=degenerate, threads=threads)
+                                    options=_options(boundary, degenerate, threads))
     return VJP(dV, dweights, float(value))
 
 
@@ -209,8 +209,8 @@ def _energy(V, T, f, lap, mass, weights, boundary, degenerate, threads, return_w
     F = _columns(f, V.shape[0])
     dV, dweights, value = _core.vjp(
         V, T, lap, mass, dl=("quadratic", F) if lap is not None else None,
-        dm=("quadratic", F) if mass is not None else None, weights=w, boundary=boundary,
-        degenerate=degenerate, threads=threads)
+        dm=("quadratic", F) if mass is not None else None, weights=w,
+        options=_options(boundary, degenerate, threads))
     if return_weights_gradient:
         if dweights is None:
             dweights = np.zeros(V.shape[0])

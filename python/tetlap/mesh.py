@@ -8,6 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
+from .assembly import _options
 from .errors import ShapeError
 
 __all__ = ["Mesh", "UpdateInfo"]
@@ -67,8 +68,8 @@ class Mesh:
         V, T = _arrays.mesh(V, T)
         V, T = _arrays.points(V), _arrays.elements(T)
         w = _arrays.vertex_weights(weights, V.shape[0])
-        self._core = _core.Mesh(V, T, weights=w, boundary=boundary, degenerate=degenerate,
-                                threads=threads)
+        self._core = _core.Mesh(V, T, weights=w,
+                                options=_options(boundary, degenerate, threads))
         self._n, self._dim = V.shape
         indices, indptr = self._core.pattern()
         pattern = _sparse.csr((np.empty(len(indices)), indices, indptr), self._n)

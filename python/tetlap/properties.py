@@ -20,7 +20,7 @@ import numbers
 import numpy as np
 import scipy.sparse as sp
 
-from . import _arrays, _core, assembly, diagnostics
+from . import _arrays, _core, _sparse, assembly, diagnostics
 from ._interrupt import interruptible
 from .errors import OptionError, ShapeError
 
@@ -120,10 +120,6 @@ def _fmt(value, template: str) -> str:
     return "" if value is None else template.format(value)
 
 
-def _csr_args(A: sp.csr_array):
-    return A.data, A.indices.astype(np.int64), A.indptr.astype(np.int64)
-
-
 def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL,
           nsd: bool = True) -> Report:
     """Check a Laplacian ``L`` (and mass ``M``) of the mesh ``(V, T)`` against Table 1.
@@ -201,7 +197,7 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
     L = _arrays.matrix(L, n, finite=False)  # a NaN or Inf is reported, not refused
     if boundary is None:
         boundary = diagnostics.boundary_vertices(T, n)
-    c = _core.check_operator(V, T, *_csr_args(L), boundary, float(negative_tol))
+    c = _core.check_operator(V, T, _sparse.arrays(L), boundary, float(negative_tol))
     notes: list[str] = []
     scale = c["scale"] if c["scale"] > 0 else 1.0
     lp = c["linear_precision"]
@@ -294,7 +290,7 @@ def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool):
         return answer
     S = (L + L.T) / 2
     S.sort_indices()
-    verdict, name, details = _core.negative_semidefinite(n, *_csr_args(S), tol)
+    verdict, name, details = _core.negative_semidefinite(n, _sparse.arrays(S), tol)
     if name == "local certificate":
         name = (f"local certificate: {details['groups']} neighbourhoods of <= "
                 f"{details['largest']} vertices cover every negative weight")

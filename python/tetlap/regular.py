@@ -56,7 +56,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from . import _arrays, _core, assembly
+from . import _arrays, _core, _sparse, assembly
 from ._interrupt import interruptible
 from .diagnostics import _FACES, _face_sets, mesh_edges
 from .errors import OptionError, TetlapError
@@ -515,8 +515,7 @@ def _dual(V, T, w, on_boundary):
     edges: its accuracy guard) are skipped in the counts."""
     L, M = assembly.operators(V, T, "dual", "circumcentric", weights=w,
                               degenerate="raise" if w is None else "skip")
-    c = _core.check_operator(V, T, L.data, L.indices.astype(np.int64),
-                             L.indptr.astype(np.int64), on_boundary, NEGATIVE_TOL)
+    c = _core.check_operator(V, T, _sparse.arrays(L), on_boundary, NEGATIVE_TOL)
     return int(c["n_negative_inner"]), M.diagonal(), c["linear_precision"]
 
 

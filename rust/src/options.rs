@@ -118,9 +118,19 @@ pub struct Options {
 }
 
 impl Options {
-    /// Runs `f` on the options' worker threads: the one way into a thread pool, and the one
-    /// check of [`Options::threads`] ([`Error::Threads`] before anything runs).
+    /// Checks what does not depend on the mesh, the thread count ([`Error::Threads`]): the
+    /// one check, done by [`Options::install`] before anything runs.
+    pub fn check(&self) -> Result<()> {
+        match self.threads {
+            Some(threads) => crate::threads::check_threads(threads),
+            None => Ok(()),
+        }
+    }
+
+    /// Runs `f` on the options' worker threads, after [`Options::check`]: the one way into
+    /// a thread pool.
     pub fn install<R: Send>(&self, f: impl FnOnce() -> Result<R> + Send) -> Result<R> {
+        self.check()?;
         crate::threads::run(self.threads, f)?
     }
 

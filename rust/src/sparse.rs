@@ -105,8 +105,15 @@ impl CsrRef<'_> {
         }
     }
 
-    /// Checks the layout against an `n x n` matrix: [`Error::Shape`] prefixed with `what`.
-    pub(crate) fn check_shape(&self, n: usize, what: &'static str) -> Result<()> {
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.data.len()
+    }
+
+    /// Checks the layout against an `n x n` matrix: row starts from 0 to the entry count,
+    /// strictly ascending columns below `n` in every row, one value per column index
+    /// ([`Error::Shape`], its message prefixed with `what`).
+    pub fn check_shape(&self, n: usize, what: &'static str) -> Result<()> {
         let shape = |detail: String| Err(Error::Shape { what: format!("{what}: {detail}") });
         if self.n != n {
             return shape(format!("a {n} x {n} matrix is needed, got {} x {}", self.n, self.n));

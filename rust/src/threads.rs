@@ -58,15 +58,12 @@ pub(crate) fn position_first<T: Sync>(items: &[T], bad: impl Fn(usize, &T) -> bo
     })
 }
 
-/// Runs `f` on `threads` workers (their own cached pool, after [`check_threads`]) or on
-/// rayon's global pool.
+/// Runs `f` on `threads` workers (their own cached pool; the count checked before, by
+/// [`check_threads`]) or on rayon's global pool.
 pub(crate) fn run<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
     match threads {
         None => Ok(f()),
-        Some(k) => {
-            check_threads(k)?;
-            Ok(pool(k)?.install(f))
-        }
+        Some(k) => Ok(pool(k)?.install(f)),
     }
 }
 
@@ -85,8 +82,9 @@ mod tests {
 
     #[test]
     fn thread_counts_are_bounded() {
-        assert_eq!(run(Some(0), || ()), Err(Error::Threads { threads: 0, max: max_threads() }));
+        assert_eq!(check_threads(0), Err(Error::Threads { threads: 0, max: max_threads() }));
         let too_many = max_threads() + 1;
-        assert!(matches!(run(Some(too_many), || ()), Err(Error::Threads { .. })));
+        assert!(matches!(check_threads(too_many), Err(Error::Threads { .. })));
+        assert_eq!(check_threads(max_threads()), Ok(()));
     }
 }

@@ -3,10 +3,12 @@
 //! without copying.
 
 use crate::errors::{shape_error, to_py};
+use crate::options::Request;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
-use tetlap::{Coo, Csr, LaplacianKind, Mass, MassKind, MeshView, Options, Simplex, Tet, Tri};
+use pyo3::Borrowed;
+use tetlap::{Coo, Csr, CsrRef, Mass, MeshView, Options, Simplex, Tet, Tri};
 
 /// The elements of a mesh: tets or triangles.
 pub enum Cells {
@@ -14,24 +16,38 @@ pub enum Cells {
     Tris(Vec<[u32; 3]>),
 }
 
-/// Owned copies of the points, the validated elements and the optional vertex weights.
-pub struct Input {
-    pub points: Vec<f64>,
-    pub dim: usize,
-    pub cells: Cells,
-    pub weights: Option<Vec<f64>>,
-}
+impl Cells {
+    /// Copies `cells`, `(m, 4)` or `(m, 3)` int64, every index checked against `n`: the one
+    /// dispatch on the element kind.
+    pub fn new(py: Python<'_>, cells: &PyReadonlyArray2<'_, i64>, n: usize) -> PyResult<Self> {
+        let flat = contiguous(py, cells)?;
+        let checked = |e| to_py(py, e);
+        Ok(match cells.shape()[1] {
+            4 => Cells::Tets(tetlap::cells_from_i64::<Tet>(flat, n).map_err(checked)?),
+            3 => Cells::Tris(tetlap::cells_from_i64::<Tri>(flat, n).map_err(checked)?),
+            k => return Err(shape_error(py, format!("elements must have 3 or 4 columns, got {k}"))),
+        })
+    }
 
-/// Something to compute on a mesh of any element kind.
-pub trait Job: Send {
-    type Output: Send;
-    fn run<S: Simplex>(self, mesh: &MeshView<S>, opts: &Options) -> tetlap::Result<Self::Output>;
+    /// The number of elements.
+    pub fn len(&self) -> usize {
+        match self {
+            Cells::Tets(c) => c.len(),
+            Cells::Tris(c) => c.len(),
+        }
+    }
 }
 
 /// Something to compute on the elements alone (no coordinates), of any kind.
 pub trait CellsJob: Send {
     type Output: Send;
     fn run<S: Simplex>(self, cells: &[S::Cell], n: usize, opts: &Options) -> tetlap::Result<Self::Output>;
+}
+
+/// Something to compute on a mesh of any element kind.
+pub trait Job: Send {
+    type Output: Send;
+    fn run<S: Simplex>(self, mesh: &MeshView<S>, opts: &Options) -> tetlap::Result<Self::Output>;
 }
 
 /// Validated elements over `n` vertices, without coordinates.
@@ -41,15 +57,8 @@ pub struct CellsInput {
 }
 
 impl CellsInput {
-    /// Copies `cells` (m, 4) or (m, 3) int64, every index checked against `n`.
     pub fn new(py: Python<'_>, cells: &PyReadonlyArray2<'_, i64>, n: usize) -> PyResult<Self> {
-        let flat = contiguous(py, cells)?;
-        let cells = match cells.shape()[1] {
-            4 => Cells::Tets(tetlap::cells_from_i64::<Tet>(flat, n).map_err(|e| to_py(py, e))?),
-            3 => Cells::Tris(tetlap::cells_from_i64::<Tri>(flat, n).map_err(|e| to_py(py, e))?),
-            k => return Err(shape_error(py, format!("elements must have 3 or 4 columns, got {k}"))),
-        };
-        Ok(CellsInput { cells, n })
+        Ok(CellsInput { cells: Cells::new(py, cells, n)?, n })
     }
 
     /// Runs `job` on the elements, whatever their kind.
@@ -69,6 +78,14 @@ pub fn contiguous<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
     a.as_slice().map_err(|_| shape_error(py, "internal: arrays must be C-contiguous".into()))
 }
 
+/// Owned copies of the points, the validated elements and the optional vertex weights.
+pub struct Input {
+    pub points: Vec<f64>,
+    pub dim: usize,
+    pub cells: Cells,
+    pub weights: Option<Vec<f64>>,
+}
+
 impl Input {
     /// Copies `points` (n, d) float64, `cells` (m, 4) or (m, 3) int64 (indices checked) and
     /// `weights` (n,) float64.
@@ -79,17 +96,9 @@ impl Input {
         weights: Option<&PyReadonlyArray1<'_, f64>>,
     ) -> PyResult<Self> {
         let [n, dim] = [points.shape()[0], points.shape()[1]];
-        let flat = contiguous(py, cells)?;
-        let cells = match cells.shape()[1] {
-            4 => Cells::Tets(tetlap::cells_from_i64::<Tet>(flat, n).map_err(|e| to_py(py, e))?),
-            3 => Cells::Tris(tetlap::cells_from_i64::<Tri>(flat, n).map_err(|e| to_py(py, e))?),
-            k => return Err(shape_error(py, format!("elements must have 3 or 4 columns, got {k}"))),
-        };
+        let cells = Cells::new(py, cells, n)?;
         let points = contiguous(py, points)?.to_vec();
-        let weights = match weights {
-            Some(w) => Some(contiguous(py, w)?.to_vec()),
-            None => None,
-        };
+        let weights = weights.map(|w| contiguous(py, w).map(<[f64]>::to_vec)).transpose()?;
         Ok(Input { points, dim, cells, weights })
     }
 
@@ -103,10 +112,10 @@ impl Input {
     }
 
     /// The validated tet mesh, or the error for a triangle mesh (what only tets support).
-    pub fn tets(&self) -> tetlap::Result<MeshView<'_, Tet>> {
+    pub fn tets(&self, what: &str) -> tetlap::Result<MeshView<'_, Tet>> {
         match &self.cells {
             Cells::Tets(c) => self.mesh::<Tet>(c),
-            Cells::Tris(_) => Err(tetlap::Error::Shape { what: "this needs a tet mesh, (m, 4) elements".into() }),
+            Cells::Tris(_) => Err(tetlap::Error::Shape { what: format!("{what} needs a tet mesh, (m, 4) elements") }),
         }
     }
 
@@ -119,14 +128,33 @@ impl Input {
     }
 }
 
-/// The one-shot computations of the module.
-pub enum Request {
-    Laplacian(LaplacianKind),
-    Mass(MassKind),
-    Operators(LaplacianKind, MassKind),
-    Contributions(LaplacianKind),
-    Triplets(LaplacianKind),
-    EdgeWeights(LaplacianKind),
+/// A sparse matrix from Python, `(data float64, indices int64, indptr int64)` as SciPy
+/// holds them, copied; its shape is checked by the core ([`CsrRef::check_shape`]).
+pub struct CsrArg {
+    pub indptr: Vec<usize>,
+    pub indices: Vec<u32>,
+    pub data: Vec<f64>,
+}
+
+impl CsrArg {
+    /// The matrix as an `n x n` CSR view.
+    pub fn view(&self, n: usize) -> CsrRef<'_> {
+        CsrRef { n, indptr: &self.indptr, indices: &self.indices, data: &self.data }
+    }
+}
+
+impl<'a, 'py> FromPyObject<'a, 'py> for CsrArg {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        let py = obj.py();
+        let (data, indices, indptr): (PyReadonlyArray1<'_, f64>, PyReadonlyArray1<'_, i64>, PyReadonlyArray1<'_, i64>) =
+            obj.extract().map_err(|_| shape_error(py, "internal: a sparse matrix is (data, indices, indptr)".into()))?;
+        // negative entries become values no valid matrix has; the core names them
+        let indptr = indptr.as_array().iter().map(|&p| usize::try_from(p).unwrap_or(usize::MAX)).collect();
+        let indices = indices.as_array().iter().map(|&j| u32::try_from(j).unwrap_or(u32::MAX)).collect();
+        Ok(CsrArg { indptr, indices, data: data.as_array().to_vec() })
+    }
 }
 
 /// What a [`Request`] gives.
@@ -153,8 +181,7 @@ impl Job for Request {
             }
             Request::Contributions(kind) => {
                 let w = tetlap::contributions(mesh, kind, opts)?;
-                let flat = w.iter().flat_map(|v| v.as_ref().iter().copied()).collect();
-                Response::PerElement(flat, S::EDGES.len())
+                Response::PerElement(w.iter().flat_map(|v| v.as_ref().iter().copied()).collect(), S::EDGES.len())
             }
             Request::Triplets(kind) => Response::Triplets(tetlap::triplets(mesh, kind, opts)?),
             Request::EdgeWeights(kind) => {
@@ -170,31 +197,32 @@ impl Response {
     /// `("lumped", diagonal)` or `("csr", triple)`, `(m, k)` arrays, COO triples or
     /// `(edges, weights)`.
     pub fn into_py(self, py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
-        let as_i64 = |v: Vec<u32>| v.into_iter().map(i64::from).collect::<Vec<_>>();
         Ok(match self {
             Response::Matrix(l) => csr_arrays(py, l)?.into_any(),
             Response::Mass(m) => mass_arrays(py, m)?.into_any(),
-            Response::Operators(l, m) => PyTuple::new(py, [csr_arrays(py, l)?.into_any(), mass_arrays(py, m)?.into_any()])?.into_any(),
+            Response::Operators(l, m) => {
+                PyTuple::new(py, [csr_arrays(py, l)?.into_any(), mass_arrays(py, m)?.into_any()])?.into_any()
+            }
             Response::PerElement(values, width) => {
                 let m = values.len() / width;
                 PyArray1::from_vec(py, values).reshape([m, width])?.into_any()
             }
-            Response::Triplets(coo) => PyTuple::new(
-                py,
-                [
-                    PyArray1::from_vec(py, as_i64(coo.rows)).into_any(),
-                    PyArray1::from_vec(py, as_i64(coo.cols)).into_any(),
-                    PyArray1::from_vec(py, coo.vals).into_any(),
-                ],
-            )?
-            .into_any(),
+            Response::Triplets(coo) => {
+                let as_i64 = |v: Vec<u32>| PyArray1::from_iter(py, v.into_iter().map(i64::from)).into_any();
+                let vals = PyArray1::from_vec(py, coo.vals).into_any();
+                PyTuple::new(py, [as_i64(coo.rows), as_i64(coo.cols), vals])?.into_any()
+            }
             Response::Edges(edges, w) => {
-                let flat: Vec<i64> = edges.iter().flat_map(|e| e.map(i64::from)).collect();
-                let edges = PyArray1::from_vec(py, flat).reshape([w.len(), 2])?;
-                PyTuple::new(py, [edges.into_any(), PyArray1::from_vec(py, w).into_any()])?.into_any()
+                PyTuple::new(py, [table(py, &edges)?, PyArray1::from_vec(py, w).into_any()])?.into_any()
             }
         })
     }
+}
+
+/// A `(rows, W)` int64 array.
+pub fn table<'py, const W: usize>(py: Python<'py>, rows: &[[u32; W]]) -> PyResult<Bound<'py, PyAny>> {
+    let flat: Vec<i64> = rows.iter().flat_map(|r| r.map(i64::from)).collect();
+    Ok(PyArray1::from_vec(py, flat).reshape([rows.len(), W])?.into_any())
 }
 
 /// Row starts as int32 when every offset fits, int64 otherwise.

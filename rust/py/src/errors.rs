@@ -205,6 +205,16 @@ pub fn guarded<T: Send>(
     }
 }
 
+/// [`guarded`] for `f(&opts)`, cancelled through the options' own flag.
+pub fn compute<T: Send>(
+    py: Python<'_>,
+    mut opts: tetlap::Options,
+    f: impl FnOnce(&tetlap::Options) -> tetlap::Result<T> + Send,
+) -> PyResult<T> {
+    let cancel = opts.cancel.get_or_insert_with(Cancel::new).clone();
+    guarded(py, &cancel, move || f(&opts))
+}
+
 /// `f()`, or the message of the panic it raised.
 fn caught<T>(f: impl FnOnce() -> T) -> Result<T, String> {
     catch_unwind(AssertUnwindSafe(f)).map_err(|payload| {

@@ -1,14 +1,14 @@
 //! `tetlap._core`: the thin PyO3 layer over the `tetlap` crate.
 //!
 //! Every function copies its inputs (so no other Python thread can change them under the
-//! computation), parses its options into the core's types, runs the computation on a
-//! worker thread without the GIL (answering Ctrl-C, catching any panic), and hands the
-//! output arrays to NumPy without copying. The public API, with its array-like
-//! conversions and SciPy wrapping, is the Python package `tetlap`.
+//! computation), parses its options into the core's types ([`options`]), runs the
+//! computation on a worker thread without the GIL (answering Ctrl-C, catching any panic:
+//! [`errors::compute`]), and hands the output arrays to NumPy without copying. The public
+//! API, with its array-like conversions and SciPy wrapping, is the Python package `tetlap`.
 
+mod analysis;
 mod convert;
 mod derivatives;
-mod diagnostics;
 mod errors;
 mod mesh;
 mod options;
@@ -17,26 +17,20 @@ use pyo3::prelude::*;
 
 #[pymodule]
 mod _core {
-    use crate::convert::{Input, Request};
-    use crate::errors::guarded;
-    use crate::options::{BoundaryArg, DegenerateArg, Kind, MassArg, Threads};
+    use crate::convert::Input;
+    use crate::errors::compute;
+    use crate::options::{OptionsArg, Request};
     use numpy::{PyReadonlyArray1, PyReadonlyArray2};
     use pyo3::prelude::*;
-    use tetlap::{Cancel, Options};
 
     #[pymodule_export]
     use crate::mesh::PyMesh;
-
     #[pymodule_export]
-    use crate::diagnostics::{
+    use crate::analysis::{
         check_operator, duplicates, edges, element_certificate, faces, negative_semidefinite, non_delaunay, quality,
     };
     #[pymodule_export]
     use crate::derivatives::vjp;
-
-    type Points<'py> = PyReadonlyArray2<'py, f64>;
-    type Cells<'py> = PyReadonlyArray2<'py, i64>;
-    type Weights<'py> = Option<PyReadonlyArray1<'py, f64>>;
 
     #[pymodule_init]
     fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -46,132 +40,29 @@ mod _core {
         m.add("MAX_GROUP", tetlap::MAX_GROUP)
     }
 
-    /// The core options of one call, with a fresh cancel flag.
-    fn options(boundary: BoundaryArg, degenerate: DegenerateArg, threads: Threads) -> Options {
-        Options { threads: threads.0, degenerate: degenerate.0, boundary: boundary.0, cancel: Some(Cancel::new()) }
-    }
-
-    /// The shared prologue and epilogue: copy the input, compute without the GIL, convert.
-    fn compute<'py>(
+    /// One pass of the one-shot API: `request` is `("laplacian", kind)` (CSR arrays
+    /// `(data, indices, indptr)`), `("mass", kind)` (`("lumped", diagonal)` or
+    /// `("csr", arrays)`), `("operators", kind, mass_kind)` (both), `("contributions",
+    /// kind)` (`(m, 6)` or `(m, 3)`), `("triplets", kind)` (`(rows, cols, vals)`) or
+    /// `("edge_weights", kind)` (`(edges (E, 2), weights (E,))`).
+    #[pyfunction]
+    #[pyo3(signature = (points, cells, request, *, weights=None, options=Default::default()))]
+    fn assemble<'py>(
         py: Python<'py>,
-        points: Points<'py>,
-        cells: Cells<'py>,
-        weights: Weights<'py>,
-        opts: Options,
+        points: PyReadonlyArray2<'py, f64>,
+        cells: PyReadonlyArray2<'py, i64>,
         request: Request,
+        weights: Option<PyReadonlyArray1<'py, f64>>,
+        options: OptionsArg,
     ) -> PyResult<Bound<'py, PyAny>> {
         let input = Input::new(py, &points, &cells, weights.as_ref())?;
-        let cancel = opts.cancel.clone().expect("set by options()");
-        let response = guarded(py, &cancel, move || input.run(request, &opts))?;
-        response.into_py(py)
+        compute(py, options.0, move |opts| input.run(request, opts))?.into_py(py)
     }
 
-    /// Laplacian as CSR arrays `(data, indices, indptr)`.
+    /// Checks the options before any work (what every call does first): `None` or an
+    /// `OptionError` naming the bad value.
     #[pyfunction]
-    #[pyo3(signature = (points, cells, kind, *, weights=None, boundary=Default::default(), degenerate=Default::default(), threads=Default::default()))]
-    #[allow(clippy::too_many_arguments)]
-    fn laplacian<'py>(
-        py: Python<'py>,
-        points: Points<'py>,
-        cells: Cells<'py>,
-        kind: Kind,
-        weights: Weights<'py>,
-        boundary: BoundaryArg,
-        degenerate: DegenerateArg,
-        threads: Threads,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        let opts = options(boundary, degenerate, threads);
-        compute(py, points, cells, weights, opts, Request::Laplacian(kind.0))
-    }
-
-    /// Mass matrix as `("lumped", diagonal)` or `("csr", (data, indices, indptr))`.
-    #[pyfunction]
-    #[pyo3(signature = (points, cells, kind, *, weights=None, boundary=Default::default(), degenerate=Default::default(), threads=Default::default()))]
-    #[allow(clippy::too_many_arguments)]
-    fn mass<'py>(
-        py: Python<'py>,
-        points: Points<'py>,
-        cells: Cells<'py>,
-        kind: MassArg,
-        weights: Weights<'py>,
-        boundary: BoundaryArg,
-        degenerate: DegenerateArg,
-        threads: Threads,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        let opts = options(boundary, degenerate, threads);
-        compute(py, points, cells, weights, opts, Request::Mass(kind.0))
-    }
-
-    /// Laplacian and mass in one pass: `(laplacian_csr_arrays, mass_arrays)`.
-    #[pyfunction]
-    #[pyo3(signature = (points, cells, laplacian, mass, *, weights=None, boundary=Default::default(), degenerate=Default::default(), threads=Default::default()))]
-    #[allow(clippy::too_many_arguments)]
-    fn operators<'py>(
-        py: Python<'py>,
-        points: Points<'py>,
-        cells: Cells<'py>,
-        laplacian: Kind,
-        mass: MassArg,
-        weights: Weights<'py>,
-        boundary: BoundaryArg,
-        degenerate: DegenerateArg,
-        threads: Threads,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        let opts = options(boundary, degenerate, threads);
-        compute(py, points, cells, weights, opts, Request::Operators(laplacian.0, mass.0))
-    }
-
-    /// Per-element edge weights, `(m, 6)` (tets) or `(m, 3)` (triangles) float64.
-    #[pyfunction]
-    #[pyo3(signature = (points, cells, kind, *, weights=None, boundary=Default::default(), degenerate=Default::default(), threads=Default::default()))]
-    #[allow(clippy::too_many_arguments)]
-    fn contributions<'py>(
-        py: Python<'py>,
-        points: Points<'py>,
-        cells: Cells<'py>,
-        kind: Kind,
-        weights: Weights<'py>,
-        boundary: BoundaryArg,
-        degenerate: DegenerateArg,
-        threads: Threads,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        let opts = options(boundary, degenerate, threads);
-        compute(py, points, cells, weights, opts, Request::Contributions(kind.0))
-    }
-
-    /// Unsummed triplets `(rows, cols, vals)`, 16 per tet or 9 per triangle.
-    #[pyfunction]
-    #[pyo3(signature = (points, cells, kind, *, weights=None, boundary=Default::default(), degenerate=Default::default(), threads=Default::default()))]
-    #[allow(clippy::too_many_arguments)]
-    fn triplets<'py>(
-        py: Python<'py>,
-        points: Points<'py>,
-        cells: Cells<'py>,
-        kind: Kind,
-        weights: Weights<'py>,
-        boundary: BoundaryArg,
-        degenerate: DegenerateArg,
-        threads: Threads,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        let opts = options(boundary, degenerate, threads);
-        compute(py, points, cells, weights, opts, Request::Triplets(kind.0))
-    }
-
-    /// Unique edges `(E, 2)` int64 and their summed weights `(E,)`.
-    #[pyfunction]
-    #[pyo3(signature = (points, cells, kind, *, weights=None, boundary=Default::default(), degenerate=Default::default(), threads=Default::default()))]
-    #[allow(clippy::too_many_arguments)]
-    fn edge_weights<'py>(
-        py: Python<'py>,
-        points: Points<'py>,
-        cells: Cells<'py>,
-        kind: Kind,
-        weights: Weights<'py>,
-        boundary: BoundaryArg,
-        degenerate: DegenerateArg,
-        threads: Threads,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        let opts = options(boundary, degenerate, threads);
-        compute(py, points, cells, weights, opts, Request::EdgeWeights(kind.0))
+    fn check_options(options: OptionsArg) -> PyResult<()> {
+        Python::attach(|py| options.0.check().map_err(|e| crate::errors::to_py(py, e)))
     }
 }

@@ -7,13 +7,13 @@
 //! the worker thread, without the GIL, so they cannot deadlock with it.
 
 use crate::convert::{indptr_array, Cells, Input};
-use crate::errors::{guarded, shape_error};
-use crate::options::{BoundaryArg, DegenerateArg, Kind, MassArg, Threads};
+use crate::errors::{compute, guarded, shape_error};
+use crate::options::{Kind, MassArg, OptionsArg};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use std::sync::{RwLock, RwLockReadGuard, RwLockWriteGuard};
-use tetlap::{CachedMesh, Cancel, Options, Tet, Tri};
+use tetlap::{CachedMesh, Cancel, Tet, Tri};
 
 /// The cached mesh of either element kind.
 enum AnyMesh {
@@ -75,20 +75,17 @@ impl PyMesh {
 #[pymethods]
 impl PyMesh {
     #[new]
-    #[pyo3(signature = (points, cells, *, weights=None, boundary=Default::default(), degenerate=Default::default(), threads=Default::default()))]
+    #[pyo3(signature = (points, cells, *, weights=None, options=Default::default()))]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
         cells: PyReadonlyArray2<'_, i64>,
         weights: Option<PyReadonlyArray1<'_, f64>>,
-        boundary: BoundaryArg,
-        degenerate: DegenerateArg,
-        threads: Threads,
+        options: OptionsArg,
     ) -> PyResult<Self> {
         let Input { points, dim, cells, weights } = Input::new(py, &points, &cells, weights.as_ref())?;
-        let cancel = Cancel::new();
-        let opts = Options { threads: threads.0, degenerate: degenerate.0, boundary: boundary.0, cancel: Some(cancel.clone()) };
-        let inner = guarded(py, &cancel, move || {
+        let inner = compute(py, options.0, move |opts| {
+            let opts = opts.clone();
             let mut mesh = match cells {
                 Cells::Tets(c) => AnyMesh::Tets(CachedMesh::with_vertex_weights(points, dim, c, weights, opts)?),
                 Cells::Tris(c) => AnyMesh::Tris(CachedMesh::with_vertex_weights(points, dim, c, weights, opts)?),

@@ -3,7 +3,7 @@
 //! precision. `O(nnz log degree)`, parallel over rows. (Semidefiniteness is
 //! [`crate::negative_semidefinite`].)
 
-use crate::sparse::Csr;
+use crate::sparse::CsrRef;
 use crate::error::{Error, Result};
 use crate::assembly::order::Layout;
 use crate::mesh::MeshView;
@@ -58,16 +58,17 @@ struct RowCheck {
 /// Checks `l` (square `n x n`, sorted CSR, any values) against the mesh: see
 /// [`OperatorCheck`]. `boundary[i]` marks the vertices on a boundary face; `negative_tol`
 /// is relative to the largest edge weight.
-pub fn check_operator<S: Simplex>(
-    l: &Csr,
+pub fn check_operator<'a, S: Simplex>(
+    l: impl Into<CsrRef<'a>>,
     mesh: &MeshView<S>,
     boundary: &[bool],
     negative_tol: f64,
     opts: &Options,
 ) -> Result<OperatorCheck> {
-    let n = mesh.n_vertices();
-    if l.n != n || l.indptr.len() != n + 1 || boundary.len() != n {
-        return Err(Error::Shape { what: format!("the operator is {0} x {0}, the mesh has {n} vertices", l.n) });
+    let (l, n) = (l.into(), mesh.n_vertices());
+    l.check_shape(n, "the operator")?;
+    if boundary.len() != n {
+        return Err(Error::Shape { what: format!("the boundary flags hold {} values, the mesh has {n} vertices", boundary.len()) });
     }
     opts.install(|| {
         let layout = Layout::new(mesh, opts)?;

@@ -20,7 +20,7 @@
 //!   groups of at most [`MAX_GROUP`] vertices): what remains is reported as undetermined,
 //!   never guessed.
 
-use crate::sparse::Csr;
+use crate::sparse::CsrRef;
 use crate::error::Result;
 use crate::options::Options;
 use rayon::prelude::*;
@@ -86,7 +86,7 @@ struct Group {
 }
 
 /// The sorted vertex set of `group`: its endpoints and `ring` rings of neighbours.
-fn vertices(l: &Csr, group: &Group) -> Vec<u32> {
+fn vertices(l: &CsrRef, group: &Group) -> Vec<u32> {
     let mut set: BTreeSet<u32> = BTreeSet::new();
     for &(i, k) in &group.edges {
         set.insert(i as u32);
@@ -130,7 +130,7 @@ pub(crate) fn cholesky(a: &mut [f64], n: usize, shift: f64) -> std::result::Resu
 }
 
 /// The entry `L[i, j]`, zero if not stored.
-fn entry(l: &Csr, i: usize, j: u32) -> f64 {
+fn entry(l: &CsrRef, i: usize, j: u32) -> f64 {
     let row = l.indptr[i]..l.indptr[i + 1];
     l.indices[row.clone()].binary_search(&j).map_or(0.0, |k| l.data[row.start + k])
 }
@@ -139,7 +139,7 @@ fn entry(l: &Csr, i: usize, j: u32) -> f64 {
 /// `shift` added is factored; at a non-positive pivot `k` the vector `x = L_k^{-T} e_k`
 /// has `x^T (A + shift I) x <= 0`. Returns the Rayleigh quotient of `A` at `x`, computed
 /// from the entries again.
-fn witness(l: &Csr, s: &[u32], shift: f64) -> Option<f64> {
+fn witness(l: &CsrRef, s: &[u32], shift: f64) -> Option<f64> {
     let n = s.len();
     let mut a = vec![0.0; n * n];
     for (p, &i) in s.iter().enumerate() {
@@ -169,7 +169,7 @@ fn witness(l: &Csr, s: &[u32], shift: f64) -> Option<f64> {
     Some(num / den)
 }
 
-/// Whether `l` (square, symmetric, sorted CSR) is negative semidefinite up to `tol`, with
+/// Whether `l` (square, symmetric, sorted CSR: a [`crate::Csr`] or a [`CsrRef`]) is negative semidefinite up to `tol`, with
 /// the certificate or witness of [`Semidefinite`].
 ///
 /// ```
@@ -186,11 +186,13 @@ fn witness(l: &Csr, s: &[u32], shift: f64) -> Option<f64> {
 /// assert!(matches!(certified, Semidefinite::LocalCertificate { groups: 1, .. }));
 /// # Ok::<(), tetlap::Error>(())
 /// ```
-pub fn negative_semidefinite(l: &Csr, tol: f64, opts: &Options) -> Result<Semidefinite> {
-    opts.install(|| certify(l, tol, opts))
+pub fn negative_semidefinite<'a>(l: impl Into<CsrRef<'a>>, tol: f64, opts: &Options) -> Result<Semidefinite> {
+    let l = l.into();
+    l.check_shape(l.n, "the operator")?;
+    opts.install(|| certify(&l, tol, opts))
 }
 
-fn certify(l: &Csr, tol: f64, opts: &Options) -> Result<Semidefinite> {
+fn certify(l: &CsrRef, tol: f64, opts: &Options) -> Result<Semidefinite> {
     let n = l.n;
     let row = |i: usize| l.indptr[i]..l.indptr[i + 1];
     let residual = (0..n).into_par_iter().map(|i| -l.data[row(i)].iter().sum::<f64>()).reduce(|| 0.0, f64::min);
@@ -261,7 +263,7 @@ const ROUNDS: usize = 6;
 
 /// `f(k, i, j)` for every positive weight at CSR position `k` between two vertices `i < j`
 /// of the sorted set `s`.
-fn for_each_positive(l: &Csr, s: &[u32], mut f: impl FnMut(usize, u32, u32)) {
+fn for_each_positive(l: &CsrRef, s: &[u32], mut f: impl FnMut(usize, u32, u32)) {
     for &i in s {
         let iu = i as usize;
         for k in l.indptr[iu]..l.indptr[iu + 1] {
@@ -276,7 +278,7 @@ fn for_each_positive(l: &Csr, s: &[u32], mut f: impl FnMut(usize, u32, u32)) {
 /// Whether the matrix of `group` on the vertex set `s` plus `shift I` is positive
 /// definite: its negative weights in full, the positive weights among `s` by their
 /// `share(k)`.
-fn covered(l: &Csr, group: &Group, s: &[u32], share: &(impl Fn(usize) -> f64 + Sync), shift: f64) -> bool {
+fn covered(l: &CsrRef, group: &Group, s: &[u32], share: &(impl Fn(usize) -> f64 + Sync), shift: f64) -> bool {
     let n = s.len();
     let at = |v: u32| s.binary_search(&v).expect("in the set");
     let mut a = vec![0.0; n * n];
@@ -296,7 +298,7 @@ fn covered(l: &Csr, group: &Group, s: &[u32], share: &(impl Fn(usize) -> f64 + S
 /// Negative weights grouped: those sharing a vertex together (connected components of
 /// the graph of negative edges), split into pieces of at most [`GROUP_EDGES`] edges in
 /// breadth-first order. Deterministic.
-fn initial_groups(l: &Csr, negative: &[(usize, usize)]) -> Vec<Group> {
+fn initial_groups(l: &CsrRef, negative: &[(usize, usize)]) -> Vec<Group> {
     let mut by_vertex: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
     for (e, &(i, k)) in negative.iter().enumerate() {
         by_vertex.entry(i as u32).or_default().push(e);
@@ -386,6 +388,7 @@ fn merge_failing(n: usize, groups: Vec<Group>, sets: &[Vec<u32>], failing: &[usi
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sparse::Csr;
 
     /// The Laplacian of a weighted graph on `n` vertices.
     fn graph(n: usize, edges: &[(u32, u32, f64)]) -> Csr {

@@ -16,6 +16,9 @@ pub(crate) enum Fault {
     Inaccurate,
 }
 
+/// An element's dual: edge weights and cell volumes, or why it has none.
+type DualValues<S> = Result<(<S as Simplex>::EdgeValues, <S as Simplex>::CornerValues), Fault>;
+
 /// One element as the kernels see it, with its dual computed at most once however many
 /// operators ask for it.
 pub(crate) struct Element<S: Simplex> {
@@ -24,7 +27,7 @@ pub(crate) struct Element<S: Simplex> {
     vertex_weights: Option<S::CornerValues>,
     /// Whether the barycentric boundary fix applies (a tet with a boundary face).
     fix_boundary: bool,
-    dual: OnceCell<Result<(S::EdgeValues, S::CornerValues), Fault>>,
+    dual: OnceCell<DualValues<S>>,
 }
 
 /// `v` if every value is finite.
