@@ -188,6 +188,20 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     return _check(L, V, T, M, kind=kind, negative_tol=negative_tol, nsd=nsd)
 
 
+def negative_weights(L, V, T, on_boundary=None) -> tuple[int, int]:
+    """``(negative, negative_interior)``: the weights of ``L`` that count as negative, over
+    all mesh edges and over the edges not both on the boundary, by the one rule of
+    :func:`check` (``w < -NEGATIVE_TOL * max|w|``, counted by the core in one pass).
+
+    ``V``, ``T`` validated (float64 points, int64 tets); ``on_boundary`` the (n,) boundary
+    vertex mask when the caller has it.
+    """
+    if on_boundary is None:
+        on_boundary = diagnostics.boundary_vertices(T, V.shape[0])
+    c = _core.check_operator(V, T, _sparse.arrays(L), on_boundary, NEGATIVE_TOL)
+    return int(c["n_negative"]), int(c["n_negative_inner"])
+
+
 def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=None,
            assembled=False) -> Report:
     """:func:`check` on validated ``V`` (float64) and ``T`` (int64), reusing what the
