@@ -1,10 +1,11 @@
 """Exact rational reference implementation (``fractions.Fraction``) of both Laplacians and
-the circumcentric mass of small tet meshes with rational coordinates.
+the circumcentric mass of small tet meshes with rational coordinates (and rational vertex
+weights: the power-diagram dual).
 
 Deliberately a different route from tetlap's kernels: the primal from the inverse of the
 edge matrix (gradients of the barycentric coordinates), the dual from explicit
-circumcenters and the signed piece determinants of SPEC §2 / paper Eq. 17-21, without
-cotangents or barycentric coordinates of the circumcenter.
+circumcenters (power centres) solved by Cramer's rule and the signed piece determinants of
+SPEC §2 / paper Eq. 17-21, without cotangents or barycentric coordinates of the centres.
 """
 
 from __future__ import annotations
@@ -59,43 +60,106 @@ def solve3(rows, rhs):
     return out
 
 
-def triangle_circumcenter(a, b, c):
-    """The circumcenter of triangle abc in 3D: in its plane, equidistant from a, b, c."""
+def edge_center(a, b, wa=0, wb=0):
+    """The power point of edge ab: on its line, equal power ``|p - x|^2 - w`` to a and b."""
+    u = sub(b, a)
+    return add(a, scale(u, (dot(u, u) + wa - wb) / (2 * dot(u, u))))
+
+
+def triangle_circumcenter(a, b, c, wa=0, wb=0, wc=0):
+    """The power centre of triangle abc in 3D: in its plane, equal power to a, b, c (the
+    circumcenter for zero weights)."""
     u, v = sub(b, a), sub(c, a)
     n = cross(u, v)
-    x = solve3([u, v, n], [dot(u, u) / 2, dot(v, v) / 2, Fraction(0)])
+    x = solve3([u, v, n], [(dot(u, u) + wa - wb) / 2, (dot(v, v) + wa - wc) / 2, Fraction(0)])
     return add(a, x)
 
 
-def tet_circumcenter(a, b, c, d):
+def tet_circumcenter(a, b, c, d, wa=0, wb=0, wc=0, wd=0):
+    """The power centre of tet abcd: equal power to its corners."""
     u, v, w = sub(b, a), sub(c, a), sub(d, a)
-    return add(a, solve3([u, v, w], [dot(u, u) / 2, dot(v, v) / 2, dot(w, w) / 2]))
+    return add(a, solve3([u, v, w], [(dot(u, u) + wa - wb) / 2, (dot(v, v) + wa - wc) / 2,
+                                     (dot(w, w) + wa - wd) / 2]))
 
 
-def piece(xa, xb, xc, xd):
-    """v(a, b, c): the signed volume of (x_a, c_ab, c_abc, c_abcd) (SPEC §2)."""
-    cab = scale(add(xa, xb), Fraction(1, 2))
-    cabc = triangle_circumcenter(xa, xb, xc)
-    cabcd = tet_circumcenter(xa, xb, xc, xd)
-    v = det3(sub(cab, xa), sub(cabc, xa), sub(cabcd, xa)) / 6
-    return v * sign(det3(sub(xb, xa), sub(xc, xa), sub(xd, xa)))
+def triangle_barycentric(P, q):
+    """The barycentric coordinates of ``q`` (in the plane of the triangle ``P``): the
+    signed areas of the sub-triangles over the triangle's."""
+    n = cross(sub(P[1], P[0]), sub(P[2], P[0]))
+    return [dot(cross(sub(P[(i + 1) % 3], q), sub(P[(i + 2) % 3], q)), n) / dot(n, n)
+            for i in range(3)]
 
 
-def dual_tet(X):
-    """(six weights, four cell volumes) of one tet ``X`` (4 rational points)."""
+def tet_barycentric(P, q):
+    """The barycentric coordinates of ``q`` in the tet ``P`` (Cramer's rule)."""
+    M = [[P[k][c] - P[0][c] for k in (1, 2, 3)] for c in range(3)]
+    rest = solve3(M, sub(q, P[0]))
+    return [1 - sum(rest)] + rest
+
+
+def centres(X, W, placement):
+    """The dual vertices of the tet ``X``: edge points, face points (by the face's three
+    corners, sorted) and the tet's point, placed by ``placement``: ``"centres"`` (power
+    centres), ``"centroids"`` (SPEC §2's barycentric boundary fix: a face or tet centre
+    not strictly inside its simplex becomes its centroid) or ``"snapped"`` (the mixed
+    mass: a face centre outside its triangle becomes the midpoint of the edge opposite its
+    most negative coordinate, a tet centre outside the tet the (snapped) point of the
+    face opposite its most negative coordinate)."""
+    edges = {(a, b): edge_center(X[a], X[b], W[a], W[b]) for a, b in EDGES}
+    faces = {}
+    for f in [(1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2)]:
+        c = triangle_circumcenter(*[X[i] for i in f], *[W[i] for i in f])
+        beta = triangle_barycentric([X[i] for i in f], c)
+        if placement == "centroids" and min(beta) <= 0:
+            c = scale(add(add(X[f[0]], X[f[1]]), X[f[2]]), Fraction(1, 3))
+        elif placement == "snapped" and min(beta) < 0:
+            j = beta.index(min(beta))
+            p, q = [f[i] for i in range(3) if i != j]
+            c = scale(add(X[p], X[q]), Fraction(1, 2))
+        faces[f] = c
+    t = tet_circumcenter(*X, *W)
+    lam = tet_barycentric(X, t)
+    if placement == "centroids" and min(lam) <= 0:
+        t = scale(add(add(X[0], X[1]), add(X[2], X[3])), Fraction(1, 4))
+    elif placement == "snapped" and min(lam) < 0:
+        j = lam.index(min(lam))
+        t = faces[tuple(i for i in range(4) if i != j)]
+    return edges, faces, t
+
+
+def piece(X, C, a, b, c, d):
+    """v(a, b, c): the signed volume of (x_a, c_ab, c_abc, c_abcd) (SPEC §2) for the dual
+    vertices ``C`` of :func:`centres`."""
+    edges, faces, t = C
+    xa = X[a]
+    cab = edges[tuple(sorted((a, b)))]
+    cabc = faces[tuple(sorted((a, b, c)))]
+    v = det3(sub(cab, xa), sub(cabc, xa), sub(t, xa)) / 6
+    return v * sign(det3(sub(X[b], xa), sub(X[c], xa), sub(X[d], xa)))
+
+
+def dual_tet(X, W=None, placement="centres"):
+    """(six weights, four cell volumes) of one tet ``X`` (4 rational points), with rational
+    vertex weights ``W`` (None: the circumcentric dual) and dual vertices placed by
+    ``placement`` (see :func:`centres`). The weight of edge ab is the dual face's area over
+    ``|ab|``: ``3 (v(a,b,k) + v(b,a,k) + v(a,b,l) + v(b,a,l)) / |ab|^2`` (for zero weights
+    both apex pyramids are equal and this is Eq. 20)."""
+    W = [Fraction(0)] * 4 if W is None else [Fraction(x) for x in W]
+    C = centres(X, W, placement)
     w = []
     cells = [Fraction(0)] * 4
     for a, b in EDGES:
         k, l = [c for c in range(4) if c not in (a, b)]
-        v = piece(X[a], X[b], X[k], X[l]) + piece(X[a], X[b], X[l], X[k])
+        v = (piece(X, C, a, b, k, l) + piece(X, C, b, a, k, l) + piece(X, C, a, b, l, k)
+             + piece(X, C, b, a, l, k))
         d = sub(X[a], X[b])
-        w.append(6 * v / dot(d, d))
+        w.append(3 * v / dot(d, d))
     for a in range(4):
         for b in range(4):
             for c in range(4):
                 if len({a, b, c}) == 3:
                     dd = ({0, 1, 2, 3} - {a, b, c}).pop()
-                    cells[a] += piece(X[a], X[b], X[c], X[dd])
+                    cells[a] += piece(X, C, a, b, c, dd)
     return w, cells
 
 

@@ -30,12 +30,15 @@ kind : {"primal", "dual"} or float, default "primal"
     ``(1 - t) L_primal + t L_dual`` (Sec. 9). For triangles primal and dual coincide (the
     cotan Laplacian, Eq. 6 and Eq. 16 as two routes).""",
     "mass_kind": """\
-kind : {"barycentric", "circumcentric", "fem"}, default "barycentric"
+kind : {"barycentric", "circumcentric", "mixed", "fem"}, default "barycentric"
     ``"barycentric"``: ``Vol / 4`` per tet corner (``Area / 3`` per triangle corner),
     diagonal (Eq. 3). ``"circumcentric"``: the signed dual-cell volumes ``Vol(*i)``
     (Eq. 4, 21), diagonal; negative entries are possible on non-Delaunay meshes.
-    ``"fem"``: the consistent P1 mass ``Vol (1 + delta_ab) / 20`` (triangles: ``/ 12``),
-    not diagonal.""",
+    ``"mixed"``: the circumcentric cells with every centre that falls outside its face or
+    tet moved inside it (libigl's "hybrid Voronoi" rule: to the midpoint of the edge, or
+    the centre of the face, opposite its most negative barycentric coordinate), diagonal
+    and positive on every mesh. ``"fem"``: the consistent P1 mass
+    ``Vol (1 + delta_ab) / 20`` (triangles: ``/ 12``), not diagonal.""",
     "options": """\
 boundary : {"circumcentric", "barycentric"}, default "circumcentric"
     Dual vertices of tets with a boundary face (paper Sec. 6). ``"barycentric"``: in such

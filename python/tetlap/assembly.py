@@ -118,7 +118,7 @@ def operators(V, T=None, laplacian="primal", mass="barycentric", *, boundary="ci
     {mesh}
     laplacian : {{"primal", "dual"}} or float, default "primal"
         The Laplacian's kind, as ``kind`` of :func:`laplacian`.
-    mass : {{"barycentric", "circumcentric", "fem"}}, default "barycentric"
+    mass : {{"barycentric", "circumcentric", "mixed", "fem"}}, default "barycentric"
         The mass matrix's kind, as ``kind`` of :func:`mass`.
     {options}
 

@@ -134,6 +134,7 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     {mesh}
     {kind}
     mass : {{"barycentric", "circumcentric", "fem"}}, default "barycentric"
+        (the ``"mixed"`` mass is not differentiable: its centres move piecewise)
         The mass matrix's kind, as ``kind`` of :func:`tetlap.mass`.
     dL : optional
         The cotangent on ``L``, one of

@@ -31,10 +31,14 @@ pub enum Error {
     RepeatedVertex { element: usize, vertex: u32 },
     /// An element has exactly zero volume (its vertices are affinely dependent).
     Degenerate { element: usize },
-    /// An element's contribution cannot be computed accurately in `f64`: nearly degenerate,
-    /// a volume beyond the `f64` range, or vertex weights far larger than its squared
-    /// edges (the dual's pieces cancel to fewer than half of the digits).
+    /// An element's values leave the `f64` range (a volume beyond it, or dual weights of a
+    /// tet so flat that they overflow): they cannot be computed to the documented accuracy
+    /// ([`crate::element::ACCURACY`]).
     NonFiniteResult { element: usize },
+    /// An element's values are fine, but their products with what a caller gave (the
+    /// cotangents of [`crate::vjp`], such as a function `f` of the Dirichlet energy) leave
+    /// the `f64` range.
+    Overflow { element: usize },
     /// The entries of a row (or the masses at a vertex) sum beyond the `f64` range,
     /// although every element's own values are finite (coordinates too large).
     SumOverflow { vertex: usize },
@@ -107,9 +111,13 @@ impl fmt::Display for Error {
             ),
             Error::NonFiniteResult { element } => write!(
                 f,
-                "element {element}: its contribution cannot be computed accurately in double \
-                 precision (a nearly degenerate element, a volume beyond the f64 range, or \
-                 vertex weights far larger than its squared edges); Degenerate::Skip drops it"
+                "element {element}: its values leave the f64 range (a volume beyond it, or so \
+                 flat a tet that its dual weights overflow); Degenerate::Skip drops it"
+            ),
+            Error::Overflow { element } => write!(
+                f,
+                "element {element}: the products of its values with the cotangents leave the f64 \
+                 range (the cotangents are too large; scale them down)"
             ),
             Error::SumOverflow { vertex } => write!(
                 f,

@@ -34,6 +34,13 @@ pub enum MassKind {
     Barycentric,
     /// Signed dual-cell volumes `Vol(*i)`, diagonal; negative on some non-Delaunay meshes.
     Circumcentric,
+    /// The mixed ("hybrid Voronoi") dual-cell volumes, diagonal and positive: the
+    /// circumcentric cells with every face circumcentre outside its triangle moved to the
+    /// midpoint of the edge opposite its most negative barycentric coordinate and every tet
+    /// circumcentre outside its tet to the (moved) centre of the face opposite its most
+    /// negative coordinate (for triangles: Meyer et al.'s mixed areas). libigl's
+    /// `massmatrix(V, T, MASSMATRIX_TYPE_VORONOI)` for tets.
+    Mixed,
     /// Consistent P1 mass `Vol (1 + delta_ab) / 20` (triangles: `/ 12`), on the edge pattern.
     Fem,
 }

@@ -107,10 +107,18 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             py,
             &c.degenerate,
             format!(
-                "element {element}: its contribution cannot be computed accurately in double \
-                 precision (a nearly degenerate element, a volume beyond the float64 range, or \
-                 vertex weights far larger than its squared edges); pass degenerate=\"skip\" to \
+                "element {element}: its values leave the float64 range (a volume beyond it, or \
+                 so flat a tet that its dual weights overflow); pass degenerate=\"skip\" to \
                  drop it"
+            ),
+            &[("element", i(element))],
+        ),
+        Error::Overflow { element } => raise(
+            py,
+            &c.non_finite,
+            format!(
+                "element {element}: the products of its values with the given cotangents (such \
+                 as the energy's f) leave the float64 range; scale them down"
             ),
             &[("element", i(element))],
         ),

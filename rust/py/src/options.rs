@@ -59,7 +59,7 @@ fn named<T: Copy>(obj: Borrowed<'_, '_, PyAny>, what: &str, choices: &[(&str, T)
     Err(option_error(obj.py(), format!("{what} must be {listed}, got {}", repr(obj))))
 }
 
-/// A mass kind: `"barycentric"`, `"circumcentric"` or `"fem"`.
+/// A mass kind: `"barycentric"`, `"circumcentric"`, `"mixed"` or `"fem"`.
 pub struct MassArg(pub MassKind);
 
 impl<'a, 'py> FromPyObject<'a, 'py> for MassArg {
@@ -69,6 +69,7 @@ impl<'a, 'py> FromPyObject<'a, 'py> for MassArg {
         let choices = [
             ("barycentric", MassKind::Barycentric),
             ("circumcentric", MassKind::Circumcentric),
+            ("mixed", MassKind::Mixed),
             ("fem", MassKind::Fem),
         ];
         named(obj, "mass kind", &choices).map(MassArg)

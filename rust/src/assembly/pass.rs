@@ -50,7 +50,7 @@ impl<'a, S: Simplex> Elements<'a, S> {
     }
 
     /// Element `t` (`scratch`: [`Elements::scratch_len`] values).
-    pub fn get(&self, t: usize, scratch: &mut [f64]) -> Element<S> {
+    pub fn get(&self, t: usize, scratch: &mut [f64]) -> Element<'a, S> {
         let local = self.mesh.local(t, scratch);
         let cell = self.mesh.cells()[t];
         let vertex_weights = self.mesh.vertex_weights().map(|w| {
@@ -61,40 +61,53 @@ impl<'a, S: Simplex> Elements<'a, S> {
             corner
         });
         let fix_boundary = self.boundary.as_ref().is_some_and(|b| b[t]);
-        Element::new(local, vertex_weights, fix_boundary)
+        Element::new(local, self.mesh.points(), self.mesh.dim(), cell, vertex_weights, fix_boundary)
     }
 }
 
 /// Elements per work item (and per poll of the cancel flag).
 pub(crate) const CHUNK: usize = 2048;
 
-/// The first faulty element seen (lowest user index) and its fault.
+/// The first faulty element seen (lowest user index) with its fault, and the first whose
+/// fault no policy skips ([`Fault::Overflow`]).
 #[derive(Debug, Default, Clone, Copy)]
-pub(crate) struct FirstFault(Option<(usize, Fault)>);
+pub(crate) struct FirstFault {
+    any: Option<(usize, Fault)>,
+    overflow: Option<usize>,
+}
+
+/// The lower of two optional `(user index, ...)` records.
+fn lowest<T: Copy>(a: Option<(usize, T)>, b: Option<(usize, T)>) -> Option<(usize, T)> {
+    match (a, b) {
+        (Some(x), Some(y)) => Some(if y.0 < x.0 { y } else { x }),
+        (x, y) => x.or(y),
+    }
+}
 
 impl FirstFault {
     /// Records element `t` of `elements` as faulty.
     pub fn record<S: Simplex>(&mut self, elements: &Elements<S>, t: usize, fault: Fault) {
-        self.merge(FirstFault(Some((elements.user_index(t), fault))));
+        let user = elements.user_index(t);
+        let overflow = (fault == Fault::Overflow).then_some((user, ()));
+        self.merge(FirstFault { any: Some((user, fault)), overflow: overflow.map(|(u, _)| u) });
     }
 
     fn merge(&mut self, other: FirstFault) {
-        if let Some((user, fault)) = other.0 {
-            if self.0.is_none_or(|(u, _)| user < u) {
-                self.0 = Some((user, fault));
-            }
-        }
+        self.any = lowest(self.any, other.any);
+        self.overflow = lowest(self.overflow.map(|u| (u, ())), other.overflow.map(|u| (u, ()))).map(|(u, _)| u);
     }
 
-    /// The error for the first faulty element under the policy (`Skip`: none).
+    /// The error for the first faulty element under the policy (`Skip`: none, but for an
+    /// overflow, which is never skipped).
     pub fn into_result(self, degenerate: Degenerate) -> Result<()> {
-        match self.0 {
+        if let Some(element) = self.overflow {
+            return Err(Error::Overflow { element });
+        }
+        match self.any {
             Some((element, Fault::Degenerate)) if degenerate == Degenerate::Raise => {
                 Err(Error::Degenerate { element })
             }
-            Some((element, Fault::Inaccurate)) if degenerate == Degenerate::Raise => {
-                Err(Error::NonFiniteResult { element })
-            }
+            Some((element, _)) if degenerate == Degenerate::Raise => Err(Error::NonFiniteResult { element }),
             _ => Ok(()),
         }
     }
@@ -116,7 +129,7 @@ pub(crate) fn chunked<S: Simplex, C: Send>(
             opts.cancelled()?;
             let mut faults = FirstFault::default();
             fill(c, chunk, scratch, &mut faults);
-            if faults.0.is_some() {
+            if faults.any.is_some() {
                 first.lock().unwrap_or_else(|e| e.into_inner()).merge(faults);
             }
             Ok(())

@@ -74,7 +74,7 @@ use crate::element::tet::{self, EDGES};
 use crate::mesh::TetView;
 use crate::options::{Boundary, LaplacianKind, MassKind, Options};
 use crate::assembly::pass::{chunked, CHUNK};
-use crate::element::{Fault, Simplex, Tet};
+use crate::element::{Element, Fault, Simplex, Tet};
 use crate::topology::group::{group_by, Incidence};
 use rayon::prelude::*;
 
@@ -233,6 +233,11 @@ impl<'a> Plan<'a> {
             Some((_, MassCotangent::Quadratic(f))) => f.check(n, "the quadratic form's f")?,
             None => {}
         }
+        if cot.mass.is_some_and(|(k, _)| k == MassKind::Mixed) {
+            return Err(Error::NotDifferentiable {
+                what: "the mixed mass (its moves of centres into their simplices are piecewise)",
+            });
+        }
         let dual = laplacian.is_some_and(|(k, _)| k != LaplacianKind::Primal)
             || cot.mass.is_some_and(|(k, _)| k == MassKind::Circumcentric);
         if dual && opts.boundary == Boundary::Barycentric {
@@ -332,31 +337,37 @@ impl SlotLayout {
     }
 }
 
-/// One tet's gradient into `slot`; `Err` if the tet is degenerate or a value is not finite.
+/// One tet's gradient into `slot`: `Err` with the element's fault where the forward values
+/// are refused (the accuracy rule of the assembly, applied to this element), or
+/// [`Fault::Overflow`] where they are fine but their products with the cotangents leave
+/// the `f64` range. The pairing's value comes from the forward values the assembly
+/// computes; the gradient from the [`Vjp`] of the same element (`scratch` holds its frame).
 fn tet_gradient(
-    mesh: &TetView,
+    el: &Element<Tet>,
     plan: &Plan,
     layout: &SlotLayout,
     t: usize,
-    scratch: &mut [f64],
+    cell: &[u32; 4],
+    scratch: &[f64],
     slot: &mut [f64],
 ) -> std::result::Result<(), Fault> {
-    let cell = mesh.cells()[t];
-    let lt = Tet::local(mesh.points(), mesh.dim(), &cell, scratch);
-    if tet::is_degenerate(&lt) {
-        return Err(Fault::Degenerate);
-    }
-    let dw = plan.edge_cotangent(t, &cell);
-    let (dm, dv) = plan.mass_cotangent(&cell);
-    let omega = mesh.vertex_weights().map(|w| {
-        let s2 = lt.scale * lt.scale;
-        let w0 = w[cell[0] as usize];
-        cell.map(|v| (w[v as usize] - w0) / s2)
-    });
     let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-    let mut vjp = Vjp::new(&lt);
+    let lt = &el.local;
+    let dw = plan.edge_cotangent(t, cell);
+    let (dm, dv) = plan.mass_cotangent(cell);
     let mut value = 0.0;
-    let mut forward_finite = true;
+    if let Some((kind, _)) = plan.laplacian {
+        value += dot(el.laplacian(kind)?.as_ref(), &dw);
+    }
+    if let Some((kind, _)) = plan.mass {
+        let m = el.corner_mass(kind)?;
+        value += if kind == MassKind::Circumcentric { dot(&m, &dm) } else { dv * tet::volume(lt) };
+    }
+    let omega = el.vertex_weights().map(|w| {
+        let s2 = lt.scale * lt.scale;
+        w.map(|wi| (wi - w[0]) / s2)
+    });
+    let mut vjp = Vjp::new(lt);
     let (primal_share, dual_share) = match plan.laplacian {
         None => (0.0, 0.0),
         Some((LaplacianKind::Primal, _)) => (1.0, 0.0),
@@ -364,17 +375,13 @@ fn tet_gradient(
         Some((LaplacianKind::Affine(s), _)) => (1.0 - s, s),
     };
     if primal_share != 0.0 {
-        let w = vjp.primal(dw.map(|x| x * primal_share));
-        forward_finite &= w.iter().all(|x| x.is_finite());
-        value += primal_share * dot(&w, &dw);
+        vjp.primal(dw.map(|x| x * primal_share));
     }
     if plan.dual {
-        let d = vjp.dual(omega, dw.map(|x| x * dual_share), dm);
-        forward_finite &= d.weights.iter().chain(&d.cell_volumes).all(|x| x.is_finite());
-        value += dual_share * dot(&d.weights, &dw) + dot(&d.cell_volumes, &dm);
+        vjp.dual(omega, dw.map(|x| x * dual_share), dm);
     }
     if dv != 0.0 {
-        value += dv * vjp.volume(dv);
+        vjp.volume(dv);
     }
     let g = vjp.finish();
     let dim = layout.dim;
@@ -389,10 +396,10 @@ fn tet_gradient(
         slot[4 * dim..4 * dim + 4].copy_from_slice(&g.weights);
     }
     slot[layout.stride - 1] = value;
-    if forward_finite && slot.iter().all(|x| x.is_finite()) {
+    if slot.iter().all(|x| x.is_finite()) {
         Ok(())
     } else {
-        Err(Fault::Inaccurate)
+        Err(Fault::Overflow)
     }
 }
 
@@ -404,7 +411,9 @@ fn tet_gradient(
 /// the options ([`Error::Threads`], [`Error::AffineParameter`],
 /// [`Error::NotDifferentiable`] for the dual under [`Boundary::Barycentric`]), a degenerate
 /// tet under [`crate::Degenerate::Raise`] ([`Error::Degenerate`], [`Error::NonFiniteResult`]),
-/// sums beyond the `f64` range ([`Error::SumOverflow`]), [`Error::Cancelled`].
+/// products with the cotangents beyond the `f64` range ([`Error::Overflow`], whatever the
+/// policy: the element is fine, its cotangents are too large), sums beyond the `f64` range
+/// ([`Error::SumOverflow`]), [`Error::Cancelled`].
 pub fn vjp(mesh: &TetView, cotangents: &Cotangents, opts: &Options) -> Result<MeshGradient> {
     super::install::<Tet, _>(opts, || {
         let plan = Plan::new(mesh, cotangents, opts)?;
@@ -419,7 +428,9 @@ pub fn vjp(mesh: &TetView, cotangents: &Cotangents, opts: &Options) -> Result<Me
                 let fault = chunked(&elements, opts, chunks, |c, chunk, scratch, faults| {
                     for (k, slot) in chunk.chunks_exact_mut(stride).enumerate() {
                         let t = c * CHUNK + k;
-                        if let Err(fault) = tet_gradient(mesh, &plan, &layout, t, scratch, slot) {
+                        let el = elements.get(t, scratch);
+                        let cell = &mesh.cells()[t];
+                        if let Err(fault) = tet_gradient(&el, &plan, &layout, t, cell, scratch, slot) {
                             slot.fill(0.0);
                             faults.record(&elements, t, fault);
                         }

@@ -8,6 +8,7 @@
 //! coordinates as large as 1e150 or as small as 1e-150 neither overflow nor underflow in
 //! the kernels' fourth-degree products.
 
+use crate::element::exact::{det3_dd, exact_edges, two_sum, Dd};
 use glam::{DVec2, DVec3};
 
 /// A tet as seen by the kernels: `edges[k-1] = (x_k - x_0) / scale`, `scale` a power of two.
@@ -17,6 +18,75 @@ pub struct LocalTet {
     pub edges: [DVec3; 3],
     /// The power of two that was divided out (lengths scale by it, volumes by its cube).
     pub scale: f64,
+    /// `det[e1, e2, e3]` of the scaled edges (six times the signed volume over `scale^3`),
+    /// correctly rounded from the input coordinates for tets in R^3 (see
+    /// [`crate::element::exact`]); for an immersed tet, the product of the diagonal of its
+    /// QR factor.
+    pub det: f64,
+}
+
+impl LocalTet {
+    /// The tet with edges `edges` (already scaled by `scale`), its determinant evaluated in
+    /// `f64`: for tets given by their edges alone (tests, benches; no input coordinates to
+    /// recompute a flat determinant from).
+    pub fn from_edges(edges: [DVec3; 3], scale: f64) -> Self {
+        LocalTet { edges, scale, det: edges[0].dot(edges[1].cross(edges[2])) }
+    }
+}
+
+/// A tet's corners in its own 3-space in double-double (the first at the origin), scaled by
+/// `1 / scale`, and their determinant: the frame of the kernels' precise path. In R^3 the
+/// edges and the determinant are exact (then rounded to double-double); in R^d, `d > 3`, a
+/// Gram-Schmidt QR factorisation (twice) in double-double.
+pub(crate) fn precise_tet(x: [&[f64]; 4], scale: f64) -> ([[Dd; 3]; 4], Dd) {
+    let inv = 1.0 / scale;
+    let zero = Dd::default();
+    if x[0].len() == 3 {
+        let corners = x.map(|p| [p[0], p[1], p[2]]);
+        let e = exact_edges(corners, inv);
+        return ([[zero; 3], e[0], e[1], e[2]], det3_dd(corners, inv));
+    }
+    let d = x[0].len();
+    let edge = |k: usize| -> Vec<Dd> {
+        (0..d)
+            .map(|c| {
+                let (hi, lo) = two_sum(x[k][c], -x[0][c]);
+                Dd { hi: hi * inv, lo: lo * inv }
+            })
+            .collect()
+    };
+    let dot = |a: &[Dd], b: &[Dd]| a.iter().zip(b).fold(zero, |s, (p, q)| s + *p * *q);
+    let mut q: Vec<Vec<Dd>> = Vec::with_capacity(3);
+    let mut r = [[zero; 3]; 3];
+    for k in 0..3 {
+        let mut v = edge(k + 1);
+        for _pass in 0..2 {
+            for (j, qj) in q.iter().enumerate() {
+                let proj = dot(qj, &v);
+                r[j][k] = r[j][k] + proj;
+                v.iter_mut().zip(qj).for_each(|(vc, qc)| *vc = *vc - proj * *qc);
+            }
+        }
+        let norm = dot(&v, &v).sqrt();
+        r[k][k] = norm;
+        if norm.hi > 0.0 {
+            v.iter_mut().for_each(|vc| *vc = *vc / norm);
+        }
+        q.push(v);
+    }
+    let corners = [[zero; 3], [r[0][0], zero, zero], [r[0][1], r[1][1], zero], [r[0][2], r[1][2], r[2][2]]];
+    (corners, r[0][0] * r[1][1] * r[2][2])
+}
+
+/// `det[e1, e2, e3]` of the scaled edges of the corners `x` (prescaled by `pre`, scaled by
+/// `inv`), from the `f64` evaluation when its error bound allows, else exactly.
+fn tet_det(e: &[DVec3; 3], x: impl Fn(usize) -> [f64; 3], inv: f64) -> f64 {
+    let det = e[0].dot(e[1].cross(e[2]));
+    if crate::element::exact::trusted(det, crate::element::exact::permanent(e.map(|v| v.to_array()))) {
+        det
+    } else {
+        crate::element::exact::det3([x(0), x(1), x(2), x(3)], inv)
+    }
 }
 
 /// `2^k` for `k` in `[-1022, 1023]`, exactly.
@@ -104,16 +174,20 @@ pub fn local_tet(x: [&[f64]; 4], scratch: &mut [f64]) -> LocalTet {
         if (pow2(-1000)..pow2(1000)).contains(&max_abs) {
             let k = scale_exponent(max_abs);
             let inv = pow2(-k);
-            return LocalTet { edges: e.map(|v| v * inv), scale: pow2(k) };
+            let edges = e.map(|v| v * inv);
+            let det = tet_det(&edges, |k| [x[k][0], x[k][1], x[k][2]], inv);
+            return LocalTet { edges, scale: pow2(k), det };
         }
     }
     let Some(Normalisation { pre, inv, scale }) = normalisation(&x) else {
-        return LocalTet { edges: [DVec3::ZERO; 3], scale: 1.0 };
+        return LocalTet { edges: [DVec3::ZERO; 3], scale: 1.0, det: 0.0 };
     };
     let diff = |k: usize, c: usize| (x[k][c] * pre - x[0][c] * pre) * inv;
     if d == 3 {
         let e = |k| DVec3::new(diff(k, 0), diff(k, 1), diff(k, 2));
-        return LocalTet { edges: [e(1), e(2), e(3)], scale };
+        let edges = [e(1), e(2), e(3)];
+        let det = tet_det(&edges, |k| [x[k][0] * pre, x[k][1] * pre, x[k][2] * pre], inv);
+        return LocalTet { edges, scale, det };
     }
     // R of the QR factorisation of the 3 x d edge matrix: r[j][k] = q_j . e_k, with the
     // orthonormal q_j built in `scratch` by Gram-Schmidt, iterated twice for stability.
@@ -147,6 +221,7 @@ pub fn local_tet(x: [&[f64]; 4], scratch: &mut [f64]) -> LocalTet {
             DVec3::new(r[0][2], r[1][2], r[2][2]),
         ],
         scale,
+        det: r[0][0] * r[1][1] * r[2][2],
     }
 }
 
@@ -158,6 +233,17 @@ pub struct LocalTri {
     pub edges: [DVec2; 2],
     /// The power of two that was divided out.
     pub scale: f64,
+    /// `det[e1, e2]` of the scaled edges (twice the signed area over `scale^2`), correctly
+    /// rounded from the input coordinates for triangles in R^2 (see
+    /// [`crate::element::exact`]); for an immersed triangle, from its QR factor.
+    pub det: f64,
+}
+
+impl LocalTri {
+    /// The triangle of `edges` in its plane, its determinant from them.
+    fn new(edges: [DVec2; 2], scale: f64) -> Self {
+        LocalTri { edges, scale, det: edges[0].perp_dot(edges[1]) }
+    }
 }
 
 /// Below this sum of squares a norm is recomputed with the largest component divided out
@@ -183,14 +269,17 @@ pub(crate) fn norm(v: &[f64]) -> f64 {
 pub fn local_tri(x: [&[f64]; 3]) -> LocalTri {
     let d = x[0].len();
     let Some(Normalisation { pre, inv, scale }) = normalisation(&x) else {
-        return LocalTri { edges: [DVec2::ZERO; 2], scale: 1.0 };
+        return LocalTri::new([DVec2::ZERO; 2], 1.0);
     };
     let diff = |k: usize, c: usize| (x[k][c] * pre - x[0][c] * pre) * inv;
     if d == 2 {
-        return LocalTri {
-            edges: [DVec2::new(diff(1, 0), diff(1, 1)), DVec2::new(diff(2, 0), diff(2, 1))],
-            scale,
-        };
+        let edges = [DVec2::new(diff(1, 0), diff(1, 1)), DVec2::new(diff(2, 0), diff(2, 1))];
+        let mut t = LocalTri::new(edges, scale);
+        let a = edges.map(|v| v.abs());
+        if !crate::element::exact::trusted(t.det, a[0].x * a[1].y + a[0].y * a[1].x) {
+            t.det = crate::element::exact::det2(x.map(|p| [p[0] * pre, p[1] * pre]), inv);
+        }
+        return t;
     }
     // R of the QR factorisation of the two edges, without storing q: with r00 = |e1|,
     // r01 = e1.e2 / |e1|, r11 = |e2 - (e1.e2 / |e1|^2) e1| (twice for stability).
@@ -212,7 +301,7 @@ pub fn local_tri(x: [&[f64]; 3]) -> LocalTri {
         return needle_tri(d, &diff, scale);
     }
     let r11 = r11_squared.sqrt();
-    LocalTri { edges: [DVec2::new(r00, 0.0), DVec2::new(proj + fix, r11)], scale }
+    LocalTri::new([DVec2::new(r00, 0.0), DVec2::new(proj + fix, r11)], scale)
 }
 
 /// [`local_tri`]'s QR for a triangle with tiny edges or height, through unit vectors and
@@ -222,7 +311,7 @@ fn needle_tri(d: usize, diff: &impl Fn(usize, usize) -> f64, scale: f64) -> Loca
     let e2: Vec<f64> = (0..d).map(|c| diff(2, c)).collect();
     let r00 = norm(&e1);
     if r00 == 0.0 {
-        return LocalTri { edges: [DVec2::ZERO, DVec2::new(norm(&e2), 0.0)], scale };
+        return LocalTri::new([DVec2::ZERO, DVec2::new(norm(&e2), 0.0)], scale);
     }
     let q: Vec<f64> = e1.iter().map(|a| a / r00).collect();
     let mut r01 = 0.0;
@@ -232,7 +321,7 @@ fn needle_tri(d: usize, diff: &impl Fn(usize, usize) -> f64, scale: f64) -> Loca
         r01 += proj;
         residual.iter_mut().zip(&q).for_each(|(v, qc)| *v -= proj * qc);
     }
-    LocalTri { edges: [DVec2::new(r00, 0.0), DVec2::new(r01, norm(&residual))], scale }
+    LocalTri::new([DVec2::new(r00, 0.0), DVec2::new(r01, norm(&residual))], scale)
 }
 
 #[cfg(test)]

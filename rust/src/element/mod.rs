@@ -1,14 +1,17 @@
 //! **Elements**: one element's coordinates in, its values out.
 //!
 //! The lowest layer of the crate: pure functions of one element (no indices, no threads, no
-//! allocation) and the rule that decides whether an element's values can be trusted.
+//! allocation) and the rule that decides how an element's values are computed and whether
+//! they can be trusted (the accuracy rule: `evaluate.rs`, [`ACCURACY`]).
 //!
-//! * [`frame`]: an element's coordinates in its own space, scaled by a power of two;
+//! * [`frame`]: an element's coordinates in its own space, scaled by a power of two, with
+//!   its determinant rounded correctly ([`exact`] where `f64` cannot be trusted);
 //! * [`tet`]: the kernels of one tet (primal, dual, power-diagram dual, masses, quality)
 //!   and their reverse derivatives ([`tet::derivatives`]);
 //! * [`tri`]: the kernels of one triangle;
 //! * [`Simplex`]: what the drivers need to know about an element kind ([`Tet`], [`Tri`]).
 
+pub mod exact;
 pub mod frame;
 pub mod tet;
 pub mod tri;
@@ -17,6 +20,7 @@ mod evaluate;
 mod simplex;
 
 pub(crate) use evaluate::{Element, Fault};
+pub use evaluate::ACCURACY;
 pub use frame::{local_tet, local_tri, LocalTet, LocalTri};
 pub(crate) use simplex::edge_index;
 pub use simplex::{Simplex, Tet, Tri, Values};

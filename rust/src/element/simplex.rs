@@ -6,6 +6,7 @@
 //! which kernels of [`super::tet`] and [`super::tri`] compute its contributions.
 
 use super::frame::{local_tet, local_tri, LocalTet, LocalTri};
+use super::tet::Placement;
 use super::{tet, tri};
 use std::fmt::Debug;
 
@@ -54,16 +55,26 @@ pub trait Simplex: Copy + Debug + Default + Send + Sync + 'static {
     fn measure(l: &Self::Local) -> f64;
     /// Primal (P1 FEM / cotan) edge weights.
     fn primal(l: &Self::Local) -> Self::EdgeValues;
+    /// [`Simplex::primal`] in extended precision from the element's input corners (the
+    /// precise path of the accuracy rule), or `None` when this kind has none.
+    fn primal_precise(corners: &[&[f64]], l: &Self::Local) -> Option<Self::EdgeValues>;
     /// Barycentric corner masses.
     fn barycentric(l: &Self::Local) -> Self::CornerValues;
-    /// Dual edge weights and dual-cell volumes (circumcentric corner masses), weighted by
-    /// the corners' vertex weights and with the barycentric boundary fix if asked (only
-    /// when [`Simplex::WEIGHTED_DUAL`]).
-    fn dual(
+    /// Whether `f64` serves the element's kernels to the documented accuracy (else the
+    /// precise path of the accuracy rule, [`crate::element`]).
+    fn well_shaped(l: &Self::Local) -> bool;
+    /// Dual edge weights and dual-cell volumes (circumcentric corner masses) in `f64`, with
+    /// the corners' vertex weights and dual vertices placed by `placement` (weights and
+    /// [`Placement::Centroids`] only when [`Simplex::WEIGHTED_DUAL`]).
+    fn dual(l: &Self::Local, weights: Option<&Self::CornerValues>, placement: Placement) -> (Self::EdgeValues, Self::CornerValues);
+    /// [`Simplex::dual`] in extended precision from the element's input corners (the
+    /// precise path of the accuracy rule), or `None` when this kind has none.
+    fn dual_precise(
+        corners: &[&[f64]],
         l: &Self::Local,
         weights: Option<&Self::CornerValues>,
-        fix_boundary: bool,
-    ) -> (Self::EdgeValues, Self::CornerValues);
+        placement: Placement,
+    ) -> Option<(Self::EdgeValues, Self::CornerValues)>;
 }
 
 /// Tetrahedra (in R^3 or immersed in R^d, d > 3).
@@ -115,17 +126,32 @@ impl Simplex for Tet {
         tet::primal_weights(l)
     }
 
+    fn primal_precise(corners: &[&[f64]], l: &LocalTet) -> Option<[f64; 6]> {
+        Some(tet::primal_weights_precise([corners[0], corners[1], corners[2], corners[3]], l))
+    }
+
     fn barycentric(l: &LocalTet) -> [f64; 4] {
         tet::barycentric_mass(l)
     }
 
-    fn dual(l: &LocalTet, weights: Option<&[f64; 4]>, fix_boundary: bool) -> ([f64; 6], [f64; 4]) {
-        if weights.is_none() && !fix_boundary {
-            let d = tet::dual(l);
-            return (d.weights, d.cell_volumes);
-        }
-        let d = tet::power_dual(l, weights, fix_boundary);
+    fn well_shaped(l: &LocalTet) -> bool {
+        tet::well_shaped(l)
+    }
+
+    fn dual(l: &LocalTet, weights: Option<&[f64; 4]>, placement: Placement) -> ([f64; 6], [f64; 4]) {
+        // weights defined up to a constant: equal weights are none (bitwise)
+        let weights = weights.filter(|w| w.iter().any(|&x| x != w[0]));
+        let d = match (weights, placement) {
+            (None, Placement::Centres) => tet::dual(l),
+            _ => tet::power_dual(l, weights, placement),
+        };
         (d.weights, d.cell_volumes)
+    }
+
+    fn dual_precise(corners: &[&[f64]], l: &LocalTet, weights: Option<&[f64; 4]>, placement: Placement) -> Option<([f64; 6], [f64; 4])> {
+        let corners = [corners[0], corners[1], corners[2], corners[3]];
+        let d = tet::power_dual_precise(corners, l, weights, placement);
+        Some((d.weights, d.cell_volumes))
     }
 }
 
@@ -162,12 +188,29 @@ impl Simplex for Tri {
         tri::cotan_weights(l)
     }
 
+    fn primal_precise(_: &[&[f64]], _: &LocalTri) -> Option<[f64; 3]> {
+        None
+    }
+
     fn barycentric(l: &LocalTri) -> [f64; 3] {
         [tri::area(l) / 3.0; 3]
     }
 
-    fn dual(l: &LocalTri, _: Option<&[f64; 3]>, _: bool) -> ([f64; 3], [f64; 3]) {
-        tri::dual(l)
+    fn well_shaped(_: &LocalTri) -> bool {
+        // with its determinant rounded correctly a triangle's kernels need no precise path
+        true
+    }
+
+    fn dual(l: &LocalTri, _: Option<&[f64; 3]>, placement: Placement) -> ([f64; 3], [f64; 3]) {
+        let (w, m) = tri::dual(l);
+        match placement {
+            Placement::Snapped => (w, tri::mixed_area(l)),
+            _ => (w, m),
+        }
+    }
+
+    fn dual_precise(_: &[&[f64]], _: &LocalTri, _: Option<&[f64; 3]>, _: Placement) -> Option<([f64; 3], [f64; 3])> {
+        None
     }
 }
 

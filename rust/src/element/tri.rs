@@ -16,9 +16,10 @@ fn corners(t: &LocalTri) -> [DVec2; 3] {
     [DVec2::ZERO, t.edges[0], t.edges[1]]
 }
 
-/// Twice the signed area, `det[x1 - x0, x2 - x0]`.
+/// Twice the signed area, `det[x1 - x0, x2 - x0]` (correctly rounded in R^2: see
+/// [`LocalTri::det`]).
 fn det(t: &LocalTri) -> f64 {
-    t.edges[0].perp_dot(t.edges[1])
+    t.det
 }
 
 /// Whether the triangle's corners are collinear (zero area).
@@ -67,8 +68,9 @@ pub fn dual(t: &LocalTri) -> ([f64; 3], [f64; 3]) {
     let mut areas = [0.0; 3];
     for (e, (&(i, j), &k)) in EDGES.iter().zip(&OPPOSITE_CORNER).enumerate() {
         let m = (x[i] + x[j]) / 2.0;
-        // Eq. 16's determinant, signed by the orientation of (x_i, x_j, x_k)
-        let s = (x[j] - x[i]).perp_dot(x[k] - x[i]).signum();
+        // Eq. 16's determinant, signed by the orientation of (x_i, x_j, x_k): that of the
+        // triangle for (0, 1, 2) and (1, 2, 0), the opposite for (0, 2, 1)
+        let s = if (i, j, k) == (0, 2, 1) { -det(t).signum() } else { det(t).signum() };
         let piece_i = (m - x[i]).perp_dot(c - x[i]) * s; // 2 * signed area at i
         let piece_j = -(m - x[j]).perp_dot(c - x[j]) * s; // mirror image at j
         let len2 = (x[j] - x[i]).length_squared();
@@ -77,6 +79,28 @@ pub fn dual(t: &LocalTri) -> ([f64; 3], [f64; 3]) {
         areas[j] += piece_j / 2.0;
     }
     (weights, areas.map(|v| v * t.scale * t.scale))
+}
+
+/// The mixed ("hybrid Voronoi", Meyer et al. 2003) areas of the corners: the signed
+/// Voronoi areas of [`dual`] when no angle is obtuse, else half the area at the obtuse
+/// corner and a quarter at the others (the circumcenter snapped to the midpoint of the
+/// longest edge). Positive for every non-degenerate triangle.
+///
+/// ```
+/// let x = [[0.0, 0.0], [4.0, 0.0], [1.0, 0.5]]; // obtuse at corner 2
+/// let t = tetlap::local_tri([&x[0], &x[1], &x[2]]);
+/// assert_eq!(tetlap::element::tri::mixed_area(&t), [0.25, 0.25, 0.5]);
+/// ```
+pub fn mixed_area(t: &LocalTri) -> [f64; 3] {
+    let x = corners(t);
+    let obtuse = OPPOSITE_CORNER.iter().zip(&EDGES).find(|(&k, &(i, j))| (x[i] - x[k]).dot(x[j] - x[k]) < 0.0);
+    match obtuse {
+        None => dual(t).1,
+        Some((&k, _)) => {
+            let a = area(t);
+            std::array::from_fn(|c| if c == k { a / 2.0 } else { a / 4.0 })
+        }
+    }
 }
 
 /// Below this squared edge length (in the normalised frame, `2^-600`) the direct formulas

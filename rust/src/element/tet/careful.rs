@@ -22,6 +22,13 @@ pub(crate) fn is_extreme(f: &Frame) -> bool {
     f.normals.iter().any(|n| n.length_squared() < SMALL)
 }
 
+/// Whether a face is small by its size (the product of two of its edges' squared lengths
+/// underflows like its normal would), not by cancellation (a normal that rounds to zero
+/// between long edges): the needles the unit-vector forms are for.
+pub(crate) fn has_tiny_face(f: &Frame) -> bool {
+    FACES.iter().any(|&[p, q, r]| (f.x[q] - f.x[p]).length_squared() * (f.x[r] - f.x[p]).length_squared() < SMALL)
+}
+
 /// `(v / |v|, |v|)` without squaring small components (a scaled norm); zero stays zero.
 pub(crate) fn unit(v: DVec3) -> (DVec3, f64) {
     let m = v.abs().max_element();

@@ -7,16 +7,16 @@
 
 mod careful;
 pub mod derivatives;
-mod dual;
+pub(crate) mod dual;
 mod mass;
-mod power;
+pub(crate) mod power;
 mod primal;
 mod quality;
 
 pub use dual::{dual, Dual};
 pub use mass::barycentric_mass;
-pub use power::{dual_from_centers, power_dual, Centers};
-pub use primal::primal_weights;
+pub use power::{power_dual, power_dual_precise, Placement, Real};
+pub use primal::{primal_weights, primal_weights_precise};
 pub use quality::{inside_circumsphere, tet_quality, TetQuality, DELAUNAY_RTOL};
 
 use super::frame::LocalTet;
@@ -46,24 +46,48 @@ impl Frame {
     pub fn new(t: &LocalTet) -> Self {
         let [e1, e2, e3] = t.edges;
         let normals = [(e3 - e1).cross(e2 - e1), e2.cross(e3), e3.cross(e1), e1.cross(e2)];
-        Frame { x: [DVec3::ZERO, e1, e2, e3], normals, det: e1.dot(normals[1]) }
+        Frame { x: [DVec3::ZERO, e1, e2, e3], normals, det: t.det }
     }
 }
 
-/// Whether the tet's corners are affinely dependent (zero determinant, in the scaled frame
-/// so that tiny tets are not mistaken for flat ones).
+/// Whether the tet's corners are affinely dependent: its determinant is zero (exactly, for a
+/// tet in R^3: see [`LocalTet::det`]).
 pub fn is_degenerate(t: &LocalTet) -> bool {
-    let [e1, e2, e3] = t.edges;
-    e1.dot(e2.cross(e3)) == 0.0
+    t.det == 0.0
+}
+
+/// The smallest radius ratio (`3 r_in / R`: 1 for the regular tet, 0 for a flat one) at
+/// which [`well_shaped`] holds: `1/32`. Over caps, slivers, needles, wedges and random tets
+/// (with vertex weights up to `1e-2` of the squared edges) the float kernels' error
+/// against exact rationals stays below `3 eps / rho^2` of the tet's largest value, `1e-12`
+/// at this ratio.
+pub const WELL_SHAPED: f64 = 1.0 / 32.0;
+
+/// Whether `f64` serves the tet's kernels to [`crate::element::ACCURACY`]: its radius ratio
+/// is at least [`WELL_SHAPED`] (tested through the lower bound `3 |det| / (4 max_l |n_l|
+/// |c|)`, `c` the circumcentre relative to a corner, without a square root), or its faces
+/// are so small that the kernels take their unit-vector forms (`careful`, exact for
+/// needles along the axes). The other tets are computed in double-double from their exact
+/// input coordinates ([`power_dual_precise`], [`primal_weights_precise`]).
+pub fn well_shaped(t: &LocalTet) -> bool {
+    let f = Frame::new(t);
+    if careful::has_tiny_face(&f) {
+        return true;
+    }
+    let [_, e1, e2, e3] = f.x;
+    let c = (e1.length_squared() * f.normals[1] + e2.length_squared() * f.normals[2] + e3.length_squared() * f.normals[3])
+        / (2.0 * f.det);
+    let largest = f.normals.iter().map(|n| n.length_squared()).fold(0.0, f64::max);
+    // rho >= 3 |det| / (4 |n|_max |c|) >= WELL_SHAPED, squared
+    9.0 * f.det * f.det >= 16.0 * WELL_SHAPED * WELL_SHAPED * largest * c.length_squared()
 }
 
 /// Unsigned volume of the tet (`|det[x1-x0, x2-x0, x3-x0]| / 6`), in the caller's units.
 ///
-/// Exactly zero for a degenerate tet (affinely dependent corners), up to rounding of the
-/// determinant.
+/// Zero exactly for a degenerate tet (affinely dependent corners); for a tet in R^3 the
+/// determinant is correctly rounded, so a flat tet's volume is accurate too.
 pub fn volume(t: &LocalTet) -> f64 {
-    let [e1, e2, e3] = t.edges;
-    e1.dot(e2.cross(e3)).abs() / 6.0 * t.scale * t.scale * t.scale
+    t.det.abs() / 6.0 * t.scale * t.scale * t.scale
 }
 
 #[cfg(test)]

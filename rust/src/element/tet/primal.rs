@@ -1,7 +1,9 @@
 //! Primal (P1 FEM / cotan) weights of one tet, paper Eq. 7.
 
+use super::power::{cross, dot, sub};
 use super::{Frame, EDGES};
-use crate::element::frame::LocalTet;
+use crate::element::exact::Dd;
+use crate::element::frame::{precise_tet, LocalTet};
 
 /// The six primal weights of one tet: `w_ab = |x_k - x_l| cot(theta_kl) / 6` for edge `ab`
 /// with opposite edge `kl` and dihedral angle `theta_kl` there.
@@ -28,6 +30,16 @@ pub fn primal_weights(t: &LocalTet) -> [f64; 6] {
     EDGES.map(|(a, b)| f.normals[a].dot(f.normals[b]) * k)
 }
 
+/// [`primal_weights`] in double-double from the tet's input corners `x` (exact edges and
+/// determinant): the precise path of the accuracy rule, for tets whose thin faces make the
+/// face normals a small difference of large products.
+pub fn primal_weights_precise(x: [&[f64]; 4], t: &LocalTet) -> [f64; 6] {
+    let (p, det) = precise_tet(x, t.scale);
+    let n = [cross(sub(p[3], p[1]), sub(p[2], p[1])), cross(p[2], p[3]), cross(p[3], p[1]), cross(p[1], p[2])];
+    let k = Dd::from(-t.scale) / (Dd::from(6.0) * det.abs());
+    EDGES.map(|(a, b)| (dot(n[a], n[b]) * k).to_f64())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -46,6 +58,14 @@ mod tests {
         assert!(close(&row0(w), &[-0.5, s, s, s], 1e-15));
         // the edges of the slanted face meet the corner's right dihedral angles: weight 0
         assert!(close(&w[3..], &[0.0; 3], 1e-15));
+    }
+
+    #[test]
+    fn the_precise_path_agrees_with_the_float_one() {
+        let x: [[f64; 3]; 4] = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0.2, 0.3, 1.]];
+        let t = tet(x);
+        let corners = [&x[0][..], &x[1][..], &x[2][..], &x[3][..]];
+        assert!(close(&primal_weights(&t), &primal_weights_precise(corners, &t), 1e-15));
     }
 
     #[test]

@@ -28,7 +28,7 @@ pub fn tet_quality(t: &LocalTet, signed: bool) -> TetQuality {
     let [e1, e2, e3] = t.edges;
     let x = [DVec3::ZERO, e1, e2, e3];
     let normals = [(e3 - e1).cross(e2 - e1), e2.cross(e3), e3.cross(e1), e1.cross(e2)];
-    let det = e1.dot(normals[1]);
+    let det = t.det;
     let volume = if signed { det } else { det.abs() } / 6.0 * t.scale * t.scale * t.scale;
     let dihedral = std::array::from_fn(|e| {
         let (k, l) = OPPOSITE[e];

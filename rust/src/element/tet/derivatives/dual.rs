@@ -13,9 +13,8 @@ use glam::DVec3;
 impl Vjp {
     /// Adds `sum_e dw[e] * w_e + sum_a dm[a] * m_a` for the dual weights `w_e` and cell
     /// volumes `m_a` of [`dual`](crate::element::tet::dual) (`weights = None`), or of
-    /// [`dual_from_centers`](crate::element::tet::dual_from_centers)`(t, &Centers::weighted(t, w))`
-    /// (`weights = Some(w)`, `w` in the frame's units `(omega_i - omega_0) / scale^2`, as
-    /// for [`Centers::weighted`](crate::element::tet::Centers::weighted)).
+    /// [`power_dual`](crate::element::tet::power_dual) with the user weights `omega`
+    /// (`weights = Some(w)`, `w` in the frame's units `(omega_i - omega_0) / scale^2`).
     ///
     /// With `None` nothing is added to the weight gradient; `Some([0.0; 4])` gives the same
     /// corner gradient and, in addition, the gradient with respect to the vertex weights at

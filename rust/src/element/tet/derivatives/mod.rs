@@ -19,15 +19,15 @@
 //! |---------------------------------------------------------------|--------------------|
 //! | [`primal_weights`](super::primal_weights)                     | [`Vjp::primal`]    |
 //! | [`dual`](super::dual) (weights, circumcentric cell volumes)   | [`Vjp::dual`] `(None, ..)` |
-//! | [`dual_from_centers`](super::dual_from_centers)`(t, &`[`Centers::weighted`](super::Centers::weighted)`(t, w))` | [`Vjp::dual`] `(Some(w), ..)` |
+//! | [`power_dual`](super::power_dual)`(t, Some(w), Placement::Centres)` | [`Vjp::dual`] `(Some(w), ..)` |
 //! | [`volume`](super::volume); barycentric and FEM masses        | [`Vjp::volume`]    |
 //! | affine weights `(1 - t) primal + t dual`                      | `primal((1 - t) dw)` and `dual(None, t dw, ..)` |
 //!
 //! Masses that are multiples of the volume are composed by the caller: the barycentric mass
 //! `Vol / 4` at every corner gives `dv = (dm_0 + dm_1 + dm_2 + dm_3) / 4`; the consistent FEM
 //! mass `M_ab = Vol (1 + delta_ab) / 20` gives `dv = sum_ab dM_ab (1 + delta_ab) / 20`.
-//! The barycentric boundary fix ([`Centers::clamp_to_centroids`](super::Centers::clamp_to_centroids))
-//! is not covered.
+//! The barycentric boundary fix ([`Placement::Centroids`](super::Placement::Centroids)) is not
+//! covered.
 //!
 //! # Units and frames
 //! A [`LocalTet`] holds the edges `(x_k - x_0) / scale` with `scale` a power of two, in an
@@ -75,7 +75,7 @@
 //! * volume: `Vol = sigma det / 6`, and `d det / d x_l = n_l` (all four corners).
 //! * primal: `w_ab = -(n_a . n_b) / (6 |det|)`.
 //! * dual, weighted or not, in a closed form equal to the signed pieces of
-//!   [`dual_from_centers`](super::dual_from_centers) (checked by the tests): with `c` the
+//!   [`power_dual`](super::power_dual) (checked by the tests): with `c` the
 //!   tet's power center (`2 e_k . c = |e_k|^2 + omega_0 - omega_k`, so
 //!   `c = sum_k r_k n_k / (2 det)`), `mu_l = lambda_l(c) |det| = sigma n_l . (c - x_f)`
 //!   (`x_f` a corner of face `l`) and, for edge `ab` with opposite corners `k, l`,

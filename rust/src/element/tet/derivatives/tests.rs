@@ -19,7 +19,7 @@
 
 use super::*;
 use crate::element::frame::local_tet;
-use crate::element::tet::{dual, dual_from_centers, primal_weights, volume, Centers, EDGES};
+use crate::element::tet::{dual, power_dual, primal_weights, volume, Placement, EDGES};
 use std::ops::{Add, Mul, Sub};
 
 /// Tets below this quality (see the module docs) are slivers, excluded.
@@ -135,7 +135,7 @@ fn forward(k: Kernel, x: &Points, omega_override: Option<[f64; 4]>) -> f64 {
         Kernel::Dual { omega, dw, dm } => {
             let d = match omega_override.or(omega) {
                 None => dual(&t),
-                Some(om) => dual_from_centers(&t, &Centers::weighted(&t, frame_weights(&t, om))),
+                Some(om) => power_dual(&t, Some(&om), Placement::Centres),
             };
             dot(dw, d.weights) + dot(dm, d.cell_volumes)
         }
@@ -496,7 +496,7 @@ fn forward_values_match_the_kernels() {
         let w = frame_weights(&t, omega);
         let (closed, centers) = (
             Vjp::new(&t).dual(Some(w), [0.0; 6], [0.0; 4]),
-            dual_from_centers(&t, &Centers::weighted(&t, w)),
+            power_dual(&t, Some(&omega), Placement::Centres),
         );
         assert!(tol(&closed.weights, &centers.weights), "{closed:?} {centers:?}");
         assert!(tol(&closed.cell_volumes, &centers.cell_volumes), "{closed:?} {centers:?}");
