@@ -419,6 +419,36 @@ def test_plot_names_files_and_titles_after_the_mesh(tmp_path, monkeypatch):
     assert "% of the weights negative" in titles[1]
 
 
+def documented_keys():
+    """{section: [keys]} of the tables of docs/api/info-json.md."""
+    import pathlib
+    import re
+
+    text = (pathlib.Path(__file__).parent.parent / "docs/api/info-json.md").read_text()
+    sections, current = {}, None
+    for line in text.splitlines():
+        if line.startswith("## "):
+            current = line[3:].strip().strip("`").split("`")[0]
+            sections[current] = []
+        elif line.startswith("| `") and current is not None:
+            sections[current] += re.findall(r"`(\w+)`", line.split("|")[1])
+    return sections
+
+
+def test_the_json_fields_are_documented_as_they_are():
+    """Issue 24.9: the JSON changed shape silently; its fields are now documented in the
+    API reference, every one of them, and nothing else."""
+    docs = documented_keys()
+    V, T = tetlap.meshes.weighted_ball(300, 1.0, seed=0)
+    result = info.report(V, T, nsd=False, progress=False)
+    assert set(docs["Top level"]) == set(result) | {"source", "non_finite"}
+    assert docs["mesh"] == list(result["mesh"])
+    assert set(docs["primal"]) == set(result["primal"]) == set(result["dual"])
+    assert set(docs["regular"]) == set(result["regular"]) | {"reason"}
+    V4 = np.hstack([V, np.zeros((len(V), 1))])            # the same keys when immersed
+    assert list(info.report(V4, T, nsd=False, progress=False)["mesh"]) == docs["mesh"]
+
+
 # ---- the corpus -----------------------------------------------------------------------
 
 
