@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -162,16 +163,18 @@ def test_a_mesh_beyond_the_float_range_as_users_type_it(tmp_path):
 
 
 @pytest.mark.parametrize("scale", [1e100, 1e-100, 2.0**200, 2.0**-200])
-def test_meshes_near_the_float_range_give_valid_json_and_no_warnings(scale, tmp_path):
+def test_meshes_near_the_float_range_give_valid_json_and_no_warnings(scale, given_mesh, capsys):
     """In range but far from everyday units: the report is complete, strictly valid JSON,
-    the regular section decided as on the unscaled mesh, and nothing on stderr."""
-    pytest.importorskip("meshio")
+    the regular section decided as on the unscaled mesh, and no warning (any warning
+    would be an error here)."""
     V, T = tetlap.meshes.weighted_ball(300, 1.0, seed=0)
-    path = tmp_path / "scaled.vtu"
-    tetlap.io.write(path, V * scale, T)
-    out = run("info", str(path), "--json", "--no-nsd", "--regular-time", "60")
-    assert out.returncode == 0 and out.stderr == "", out.stderr
-    result = strict_json(out.stdout)
+    given_mesh(V * scale, T)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert cli.main(["info", "--json", "--no-nsd", "--regular-time", "60"]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    result = strict_json(out)
     plain = tetlap.info.report(V, T, nsd=False, progress=False, regular_time_limit=60)
     assert "non_finite" not in result
     assert result["mesh"]["n_degenerate_tets"] == 0
@@ -198,7 +201,7 @@ def test_plot_without_matplotlib_fails_before_any_analysis(monkeypatch, tmp_path
                                  "pip install 'tetlap[experiments]'\n")
 
 
-def test_plots_are_named_after_the_mesh(tmp_path, capsys):
+def test_plots_are_named_after_the_mesh(tmp_path, monkeypatch, capsys):
     pytest.importorskip("matplotlib")
     pytest.importorskip("meshio")
     folder = tmp_path / "new" / "plots"
@@ -210,6 +213,8 @@ def test_plots_are_named_after_the_mesh(tmp_path, capsys):
     assert sorted(p.name for p in folder.iterdir()) == [
         f"{name}_{what}.png" for name in ("first", "second")
         for what in ("dihedral_angles", "masses", "weights")]
+    V, T = tetlap.meshes.cube(2, jitter=0.1)
+    monkeypatch.setattr(_mesh, "load", lambda path: (V, T, _mesh.BUILT_IN))
     assert cli.main(["info", "--no-nsd", "--no-regular", "--json", "--plot", str(folder)]) == 0
     out, err = capsys.readouterr()
     json.loads(out)                                   # the file list goes to stderr
