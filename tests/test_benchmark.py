@@ -1,11 +1,9 @@
-"""tetlap.benchmark (``tetlap bench``): the mesh kinds, the case selection, the records
-and the table, and smoke runs of the command."""
+"""tetlap.benchmark (run by ``tetlap bench``): the mesh kinds, the case selection and the
+records. The command and its table are tested in test_cli_bench.py."""
 
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -13,11 +11,6 @@ from scipy.spatial import Delaunay
 
 import tetlap
 from tetlap import benchmark
-
-
-def run(*args):
-    return subprocess.run([sys.executable, "-m", "tetlap", *args], capture_output=True,
-                          text=True, timeout=600)
 
 
 def sorted_tets(T):
@@ -125,42 +118,4 @@ def test_records_and_table():
         assert r["median_s"] > 0
         assert r["mtets_per_s"] == pytest.approx(len(T) / r["median_s"] / 1e6)
         assert r["vs_floor"] == pytest.approx(r["median_s"] / by_case["floor"]["median_s"])
-    json.dumps(records)
-    lines = benchmark.table(records).splitlines()
-    assert lines[0].split()[:3] == ["mesh", "tets", "case"] and len(lines) == 1 + len(records)
-    assert all(line.startswith("cube 3") for line in lines[1:])
-
-
-# ---- the command ----------------------------------------------------------------------
-
-
-def test_bench_quick_smoke():
-    out = run("bench", "--sizes", "10k", "--repeat", "1", "--quick", "--json")
-    assert out.returncode == 0, out.stderr
-    records = json.loads(out.stdout)
-    cases = {r["case"] for r in records}
-    assert {"floor", "tetlap primal", "tetlap dual", "Mesh: update 20 vertices"} <= cases
-    assert all(r["median_s"] > 0 for r in records)
-    assert {r["mesh"] for r in records} == {"kuhn 10k", "delaunay 10k"}  # --quick kinds
-
-
-def test_bench_operator_filter():
-    out = run("bench", "--sizes", "10k", "--repeat", "1", "--quick", "--json", "--operators", "dual")
-    assert out.returncode == 0, out.stderr
-    cases = {r["case"] for r in json.loads(out.stdout)}
-    assert "tetlap dual" in cases and "tetlap primal" not in cases and "floor" in cases
-
-
-def test_bench_a_mesh_file(tmp_path, capsys):
-    pytest.importorskip("meshio")
-    V, T = tetlap.meshes.cube(4, jitter=0.1)
-    path = tmp_path / "cube4.vtu"
-    tetlap.io.write(path, V, T)
-    from tetlap import cli
-
-    assert cli.main(["bench", "--mesh", str(path), "--repeat", "1", "--json",
-                     "--operators", "tetlap primal"]) == 0
-    records = json.loads(capsys.readouterr().out)
-    assert {r["mesh"] for r in records} == {"cube4.vtu"}  # --mesh alone: no generated kinds
-    assert all(r["n_tets"] == len(T) and r["n_vertices"] == len(V) for r in records)
-    assert {"floor", "tetlap primal"} <= {r["case"] for r in records}
+    json.dumps(records, allow_nan=False)

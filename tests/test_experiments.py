@@ -108,3 +108,56 @@ def test_improve(tmp_path):
     folder = run("improve", tmp_path, meshes=MESH_DIR)
     shell = [r for r in rows(folder) if r["part"] == "shell"]
     assert shell and all(int(r["negative_after"]) < int(r["negative_before"]) for r in shell)
+
+
+# ---- the registry, the corpus listing, the summaries -----------------------------------
+
+
+def test_the_registry_lists_each_experiment_once_with_its_runner():
+    import importlib
+    import inspect
+
+    assert len(set(experiments.NAMES)) == len(experiments.EXPERIMENTS) == 7
+    for e in experiments.EXPERIMENTS:
+        run = importlib.import_module(f"tetlap.experiments.{e.module}").run
+        assert ("meshes" in inspect.signature(run).parameters) == e.corpus, e.name
+    with pytest.raises(tetlap.OptionError, match="unknown experiment"):
+        experiments.run("nonsense")
+
+
+def test_mesh_files_of_a_folder(tmp_path):
+    from tetlap.experiments._corpus import mesh_files
+
+    for name in ("b.vtu", "a.msh", "notes.txt", "c.ele", "c.node"):
+        (tmp_path / name).write_text("")
+    assert [p.name for p in mesh_files(tmp_path)] == ["a.msh", "b.vtu", "c.ele"]
+    assert [p.name for p in mesh_files(tmp_path, only={"b.vtu", "x.vtu"})] == ["b.vtu"]
+
+
+def test_a_failed_case_is_explained_in_the_summary_not_printed_as_nan(monkeypatch, tmp_path):
+    """Issue 24.8: eigen-ball printed ``nan`` where an eigenproblem failed; the reason was
+    only in results.csv, and cut at its first ';'."""
+    from tetlap.experiments import eigen_ball
+
+    exact = eigen_ball.ball_eigenvalues()
+    barycentric = tetlap.mass(*tetlap.meshes.weighted_ball(3000, 1.0, seed=0)).diagonal()
+
+    def eigs(L, M, k, fixed):      # the weighted ball's circumcentric mass fails, as at 64k
+        d = M.diagonal()
+        if len(d) == len(barycentric) and not np.array_equal(d, barycentric):
+            raise tetlap.SolveError("the mass matrix is not positive; M[3, 3] = -1e-05")
+        return exact * 1.01, None
+
+    def no_gmsh():
+        raise ImportError("gmsh is not installed")
+
+    monkeypatch.setattr(eigen_ball.solve, "eigs", eigs)
+    monkeypatch.setattr(eigen_ball.meshes, "_gmsh", no_gmsh)
+    folder = experiments.run("eigen-ball", quick=True, out=tmp_path / "eigen")
+    summary = (folder / "summary.txt").read_text()
+    data = rows(folder)
+    failed = [r for r in data if r["note"]]
+    assert failed and all(r["note"] == "the mass matrix is not positive; M[3, 3] = -1e-05"
+                          for r in failed)
+    assert "nan" not in summary
+    assert "n/a (the mass matrix is not positive; M[3, 3] = -1e-05)" in summary

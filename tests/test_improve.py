@@ -1,7 +1,11 @@
 """tetlap.improve: fewer negative interior dual weights, boundary and fixed vertices kept,
-no tet inverted, inputs untouched, deterministic; the objective's gradient; the CLI."""
+no tet inverted, inputs untouched, deterministic; the objective's gradient and its two
+safeguards; options and meshes near the float range refused before any work. The command
+is tested in test_cli_improve.py."""
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 import pytest
@@ -68,21 +72,6 @@ def test_barrier_derivative_and_quality_gradient():
         assert abs(fd - dq[t, a, c]) < 1e-6 * np.abs(dq[t]).max()
 
 
-def test_cli(tmp_path, mesh, capsys):
-    pytest.importorskip("meshio")
-    from tetlap import cli, io
-
-    V, T = mesh
-    src, out = tmp_path / "in.vtu", tmp_path / "out.vtu"
-    io.write(src, V, T)
-    assert cli.main(["improve", str(src), "-o", str(out), "--iterations", "5"]) == 0
-    text = capsys.readouterr().out
-    assert "negative interior dual weights" in text and "non-Delaunay" in text
-    V2, T2 = io.read(out)
-    assert np.array_equal(T2, T) and V2.shape == V.shape
-    assert cli.main(["improve", str(tmp_path / "missing.vtu"), "-o", str(out)]) == 2
-
-
 def test_experiment_quick(tmp_path):
     from tetlap.experiments import improve as experiment
 
@@ -119,3 +108,97 @@ def test_never_more_negative_weights_than_the_input():
     r = imp.improve(V, T, max_iterations=10)
     assert r.before["negative_interior"] == 0
     assert r.after["negative_interior"] == 0
+
+
+def test_the_negative_count_is_that_of_check(mesh, result):
+    V, T = mesh
+    for X in (V, result.V):
+        L = tetlap.laplacian(X, T, "dual", degenerate="skip")
+        assert imp.dual_statistics(X, T)["negative_interior"] == tetlap.check(
+            L, X, T, nsd=False).n_negative_interior
+
+
+def test_the_objective_gradient_against_finite_differences(mesh):
+    V, T = mesh
+    objective = imp.Objective(V, T, np.zeros(len(V), dtype=bool), margin=0.5, barrier=10.0,
+                              regularization=1e-2, threads=None)
+    rng = np.random.default_rng(0)
+    x = objective.start() + rng.uniform(-1e-3, 1e-3, len(objective.start()))
+    phi, grad = objective(x)
+    assert objective.evaluations == 1 and phi > 0
+    for k in rng.choice(len(x), 8, replace=False):
+        e = np.zeros_like(x)
+        e[k] = 1e-7
+        fd = (objective(x + e)[0] - objective(x - e)[0]) / 2e-7
+        assert fd == pytest.approx(grad[k], rel=1e-4, abs=1e-6 * np.abs(grad).max())
+    boundary = tetlap.diagnostics.boundary_vertices(T, len(V))
+    assert not boundary[objective.free].any()
+    assert np.array_equal(objective.positions(objective.start()), V)
+
+
+def test_keep_orientation_scales_back_a_move_that_inverts_a_tet(mesh):
+    V, T = mesh
+    objective = imp.Objective(V, T, np.zeros(len(V), dtype=bool), margin=0.02, barrier=10.0,
+                              regularization=1e-4, threads=None)
+    x0 = objective.start()
+    assert imp.keep_orientation(objective, x0, x0) == 1.0
+    v = objective.free[0]
+    tet = T[np.flatnonzero((T == v).any(axis=1))[0]]
+    others = V[tet[tet != v]]
+    X = V.copy()
+    X[v] = 2 * others.mean(axis=0) - V[v]          # through the opposite face: inverted
+    x = X[objective.free].ravel()
+    alpha = imp.keep_orientation(objective, x0, x)
+    assert 0 <= alpha < 1
+    ratios = objective.quality_ratios(objective.positions(x0 + alpha * (x - x0)))
+    assert (ratios > imp.R1).all()
+
+
+def test_fewest_negative_weights_never_adds_any():
+    V, T = tetlap.meshes.cube(4)                     # zero weights, no negative one
+    objective = imp.Objective(V, T, np.zeros(len(V), dtype=bool), margin=0.02, barrier=10.0,
+                              regularization=1e-4, threads=None)
+    x0 = objective.start()
+    x = x0 + np.random.default_rng(1).uniform(-0.02, 0.02, len(x0))
+    assert objective.negative_interior(objective.positions(x)) > 0
+    assert imp.fewest_negative_weights(objective, x0, x, 1.0) == 0.0
+    assert imp.fewest_negative_weights(objective, x0, x, 0.0) == 0.0
+
+
+@pytest.mark.parametrize("option, value", [
+    ("step", 0), ("step", -1), ("step", np.nan), ("step", np.inf), ("margin", np.nan),
+    ("margin", -0.1), ("barrier", np.inf), ("regularization", -1), ("max_iterations", 0),
+    ("max_iterations", 2.5), ("threads", 0), ("step", "0.3"), ("margin", True),
+])
+def test_impossible_options_raise_option_error_before_any_work(option, value, mesh, monkeypatch):
+    """Issue 24.3: step=0 gave an AttributeError from SciPy, -1 SciPy's words, NaN and
+    inf were taken, margin=NaN was reported as an internal cotangent."""
+    def work(*args, **kwargs):
+        raise AssertionError("work started before the options were checked")
+
+    monkeypatch.setattr(imp, "dual_statistics", work)
+    V, T = mesh
+    with pytest.raises(tetlap.OptionError, match=f"^{option} must be|^threads must be"):
+        imp.improve(V, T, **{option: value})
+
+
+def test_a_mesh_beyond_the_float_range_is_refused(mesh):
+    V, T = mesh
+    for scale in (1e200, 1e-200):
+        with pytest.raises(tetlap.DegenerateElementError, match="beyond the float64 range"):
+            imp.improve(V * scale, T, max_iterations=3)
+
+
+def test_far_from_everyday_units_the_same_moves_without_warnings(mesh):
+    """A mesh scaled by 2^200 or 2^-200 is moved in the same rescaled copy: the same result,
+    scaled back exactly; no NumPy overflow on the way."""
+    V, T = mesh
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        big = imp.improve(V * 2.0**200, T, max_iterations=5)
+        small = imp.improve(V * 2.0**-200, T, max_iterations=5)
+        huge = imp.improve(V * 1e100, T, max_iterations=5)
+    assert np.array_equal(big.V / 2.0**200, small.V * 2.0**200)
+    assert big.after["negative_interior"] == small.after["negative_interior"]
+    assert big.after["negative_interior"] < big.before["negative_interior"]
+    assert np.isfinite(huge.after["min_volume"]) and huge.after["min_volume"] > 0

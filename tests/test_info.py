@@ -194,8 +194,9 @@ def assert_operator_report(V, T, kind, r, boundary):
 
 
 def assert_report(V, T, result):
-    assert set(result) == {"mesh", "primal", "dual", "regular"}
-    json.dumps(result)  # JSON-ready
+    assert list(result) == ["schema_version", "mesh", "primal", "dual", "regular"]
+    assert result["schema_version"] == info.SCHEMA_VERSION
+    json.dumps(result, allow_nan=False)  # JSON-ready, every float finite
     reg = result["regular"]
     if reg is not None and reg["status"] != "n/a":
         # the section reuses the plain dual's and the primal's counts
@@ -320,6 +321,132 @@ def test_progress_goes_to_stderr_only(capsys):
 def test_report_rejects_triangles():
     with pytest.raises(tetlap.ShapeError):
         info.report([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], progress=False)
+
+
+def test_regular_summary_counts_and_nsd():
+    V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)
+    s = info.regular_summary(V, T, nsd=True)
+    assert s["regular"] is True and s["status"] == "regular"
+    neg = s["negative_interior_weights"]
+    assert neg["weighted_dual"] == 0 < neg["dual"]
+    assert s["nsd"]["primal"]        # the weighted dual's NSD is not guaranteed (boundary)
+    assert s["linear_precision_weighted_dual"]
+    r = tetlap.regular_weights(V, T)
+    again = info.regular_summary(V, T, r)            # a given result is used as it is
+    assert again["margin"] == r.margin and again["iterations"] == r.iterations
+    with pytest.raises(tetlap.ShapeError):
+        info.regular_summary(V[:10], T, r)
+
+
+@pytest.mark.parametrize("limit", [0, -1, float("nan"), float("inf"), "1", True])
+def test_a_bad_regular_time_limit_is_an_option_error_before_any_work(limit, monkeypatch):
+    """Issue 24.3: -1, 0 and NaN came back as a "n/a" row of the regular section."""
+    def work(*args, **kwargs):
+        raise AssertionError("work started before the option was checked")
+
+    monkeypatch.setattr(tetlap.diagnostics, "_summary", work)
+    with pytest.raises(tetlap.OptionError, match="^regular_time_limit must be a positive number"):
+        info.report(*tetlap.meshes.cube(2), regular_time_limit=limit)
+
+
+@pytest.mark.parametrize("scale", [1e200, 1e-200])
+def test_a_mesh_beyond_the_float_range_is_refused(scale):
+    V, T = tetlap.meshes.cube(2)
+    with pytest.raises(tetlap.DegenerateElementError, match="beyond the float64 range") as e:
+        info.report(V * scale, T, progress=False)
+    assert e.value.element == 0
+
+
+def test_a_flat_tet_is_reported_not_refused():
+    V, T = tetlap.meshes.cube(2)
+    bottom = np.flatnonzero(V[:, 2] == 0)
+    T = np.vstack([T, [bottom[[0, 1, 3, 4]]]])                   # four corners on z = 0
+    result = info.report(V, T, progress=False)
+    assert result["mesh"]["n_degenerate_tets"] == 1
+    assert result["regular"]["status"] == "n/a" and "element 48 is degenerate" in result["regular"]["reason"]
+
+
+# ---- plots ----------------------------------------------------------------------------
+
+
+def sliver_ball():
+    """A Delaunay ball with one vertex pushed almost onto a face: a few slivers whose
+    weights are orders of magnitude beyond the others."""
+    V, T = tetlap.meshes.ball(600, seed=2)
+    V = V.copy()
+    inner = np.flatnonzero(tetlap.diagnostics.interior_vertices(T, len(V)))
+    t = T[np.flatnonzero((T == inner[0]).any(axis=1))[0]]
+    a, b, c = V[t[t != inner[0]]]
+    V[inner[0]] = (a + b + c) / 3 + 1e-7 * np.cross(b - a, c - a)
+    return V, T
+
+
+def test_spread_bins_show_the_distribution_where_linear_bins_show_one_spike():
+    V, T = sliver_ball()
+    for kind in ("primal", "dual"):
+        _, w = tetlap.edge_weights(V, T, kind, degenerate="skip")
+        linear, _ = np.histogram(w, bins=100)
+        assert (linear > 0).sum() <= 5                          # the spike of the issue
+        bins, threshold = info.spread_bins(w)
+        spread, _ = np.histogram(w, bins=bins)
+        assert spread.sum() == len(w)                           # every value in a bin
+        assert spread.max() < 0.5 * len(w) and (spread > 0).sum() >= 10
+        assert threshold == pytest.approx(1e-3 * np.median(np.abs(w[w != 0])))
+    m = tetlap.mass(V, T, "circumcentric", degenerate="skip").diagonal()
+    assert np.histogram(m, bins=info.spread_bins(m)[0])[0].sum() == len(m)
+
+
+def test_plot_names_files_and_titles_after_the_mesh(tmp_path, monkeypatch):
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    titles = []
+    save = Figure.savefig
+
+    def savefig(fig, path, **kwargs):
+        titles.append((fig._suptitle.get_text() if fig._suptitle else "")
+                      + " | " + " | ".join(ax.get_title() for ax in fig.axes))
+        return save(fig, path, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    paths = info.plot(*sliver_ball(), tmp_path / "plots", name="sliver")
+    assert [p.name for p in paths] == ["sliver_dihedral_angles.png", "sliver_weights.png",
+                                       "sliver_masses.png"]
+    assert all(p.stat().st_size > 5000 for p in paths)
+    assert all(t.startswith("sliver: ") or " | sliver: " in t for t in titles), titles
+    masses = titles[2]
+    assert "barycentric mass: 0 of " in masses and "vertices with mass <= 0" in masses
+    assert "% of the weights negative" in titles[1]
+
+
+def documented_keys():
+    """{section: [keys]} of the tables of docs/api/info-json.md."""
+    import pathlib
+    import re
+
+    text = (pathlib.Path(__file__).parent.parent / "docs/api/info-json.md").read_text()
+    sections, current = {}, None
+    for line in text.splitlines():
+        if line.startswith("## "):
+            current = line[3:].strip().strip("`").split("`")[0]
+            sections[current] = []
+        elif line.startswith("| `") and current is not None:
+            sections[current] += re.findall(r"`(\w+)`", line.split("|")[1])
+    return sections
+
+
+def test_the_json_fields_are_documented_as_they_are():
+    """Issue 24.9: the JSON changed shape silently; its fields are now documented in the
+    API reference, every one of them, and nothing else."""
+    docs = documented_keys()
+    V, T = tetlap.meshes.weighted_ball(300, 1.0, seed=0)
+    result = info.report(V, T, nsd=False, progress=False)
+    assert set(docs["Top level"]) == set(result) | {"source", "non_finite"}
+    assert docs["mesh"] == list(result["mesh"])
+    assert set(docs["primal"]) == set(result["primal"]) == set(result["dual"])
+    assert set(docs["regular"]) == set(result["regular"]) | {"reason"}
+    V4 = np.hstack([V, np.zeros((len(V), 1))])            # the same keys when immersed
+    assert list(info.report(V4, T, nsd=False, progress=False)["mesh"]) == docs["mesh"]
 
 
 # ---- the corpus -----------------------------------------------------------------------

@@ -1,4 +1,5 @@
-"""Regular weights (issue 16): tetlap.regular.regular_weights, face_margins, summary."""
+"""Regular weights (issue 16): tetlap.regular.regular_weights, face_margins (the `info`
+summary of them is tested in test_info.py)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from hypothesis import strategies as st
 import tetlap
 import tetlap.regular as regular
 from tetlap.diagnostics import interior_faces, non_delaunay_faces
-from tetlap.regular import face_margins, regular_weights, summary
+from tetlap.regular import face_margins, regular_weights
 
 from conftest import corpus_mesh
 
@@ -365,17 +366,6 @@ def test_mass_jacobian_matches_finite_differences(rng):
         d = (tetlap.mass(V, T, "circumcentric", weights=w + e).diagonal()
              - tetlap.mass(V, T, "circumcentric", weights=w - e).diagonal()) / (2 * h)
         np.testing.assert_allclose(J[:, j], d[rows], rtol=1e-5, atol=1e-9)
-
-
-@pytest.mark.slow
-def test_summary_counts():
-    V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)
-    s = summary(V, T, nsd=True)
-    assert s["regular"] is True
-    neg = s["negative_interior_weights"]
-    assert neg["weighted_dual"] == 0 < neg["dual"]
-    assert s["nsd"]["primal"]        # the weighted dual's NSD is not guaranteed (boundary)
-    assert s["linear_precision_weighted_dual"]
 
 
 @pytest.mark.slow

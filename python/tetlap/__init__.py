@@ -13,76 +13,71 @@ Sign convention (paper Eq. 1): ``L[i, j] = w_ij`` on edges, ``L[i, i] = -sum_j w
 >>> M = tetlap.mass(V, T, kind="circumcentric")
 >>> L.shape, round(float(M.sum()), 12)
 ((64, 64), 1.0)
+
+The names below and the submodules are imported on first use (PEP 562), so that
+``import tetlap`` and ``tetlap --version`` do not load NumPy and SciPy.
 """
 
-from . import diagnostics, info, io, meshes, solve
-from ._core import MAX_THREADS
-from .mesh import Mesh, UpdateInfo
-from .properties import Report, check
-from .errors import (
-    CompatibilityError,
-    DegenerateElementError,
-    DtypeError,
-    EmptyMeshError,
-    IndexRangeError,
-    InternalError,
-    MeshFileError,
-    NonFiniteError,
-    OptionError,
-    RepeatedVertexError,
-    ShapeError,
-    SolveError,
-    TetlapError,
-)
-from .derivatives import VJP, dirichlet_energy, mass_energy, vjp
-from .regular import RegularWeights, regular_weights
-from .assembly import (
-    Triplets,
-    edge_weights,
-    laplacian,
-    mass,
-    operators,
-    tet_contributions,
-    triplets,
-)
+from __future__ import annotations
+
+import importlib
+import importlib.util
+from typing import TYPE_CHECKING
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "laplacian",
-    "mass",
-    "operators",
-    "triplets",
-    "edge_weights",
-    "tet_contributions",
-    "Triplets",
-    "vjp",
-    "dirichlet_energy",
-    "mass_energy",
-    "VJP",
-    "regular_weights",
-    "RegularWeights",
-    "Mesh",
-    "UpdateInfo",
-    "check",
-    "Report",
-    "meshes",
-    "diagnostics",
-    "solve",
-    "io",
-    "info",
-    "MAX_THREADS",
-    "TetlapError",
-    "ShapeError",
-    "DtypeError",
-    "EmptyMeshError",
-    "IndexRangeError",
-    "NonFiniteError",
-    "RepeatedVertexError",
-    "DegenerateElementError",
-    "OptionError",
-    "MeshFileError",
-    "CompatibilityError",
-    "SolveError",
-    "InternalError",
-]
+#: Where each public name lives, in the order of ``__all__``: {module: names}; a name that
+#: is its module's own (``".io": ("io",)``) is a public submodule.
+_EXPORTS = {
+    ".assembly": ("laplacian", "mass", "operators", "triplets", "edge_weights",
+                  "tet_contributions", "Triplets"),
+    ".derivatives": ("vjp", "dirichlet_energy", "mass_energy", "VJP"),
+    ".regular": ("regular_weights", "RegularWeights"),
+    ".mesh": ("Mesh", "UpdateInfo"),
+    ".properties": ("check", "Report"),
+    ".meshes": ("meshes",),
+    ".diagnostics": ("diagnostics",),
+    ".solve": ("solve",),
+    ".io": ("io",),
+    ".info": ("info",),
+    "._core": ("MAX_THREADS",),
+    ".errors": ("TetlapError", "ShapeError", "DtypeError", "EmptyMeshError",
+                "IndexRangeError", "NonFiniteError", "RepeatedVertexError",
+                "DegenerateElementError", "OptionError", "MeshFileError",
+                "CompatibilityError", "SolveError", "InternalError"),
+}
+_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
+__all__ = list(_WHERE)
+
+
+def __getattr__(name: str):
+    """Import a public name's module, or the submodule ``name``, on first use (every
+    submodule was an attribute of ``tetlap`` when the package imported them eagerly)."""
+    if name in _WHERE:
+        module = importlib.import_module(_WHERE[name], __name__)
+        value = module if module.__name__ == f"{__name__}.{name}" else getattr(module, name)
+    elif not name.startswith("__") and importlib.util.find_spec(f"{__name__}.{name}"):
+        value = importlib.import_module(f".{name}", __name__)
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, imported eagerly
+    from . import diagnostics, info, io, meshes, solve
+    from ._core import MAX_THREADS
+    from .assembly import (Triplets, edge_weights, laplacian, mass, operators,
+                           tet_contributions, triplets)
+    from .derivatives import VJP, dirichlet_energy, mass_energy, vjp
+    from .errors import (CompatibilityError, DegenerateElementError, DtypeError,
+                         EmptyMeshError, IndexRangeError, InternalError, MeshFileError,
+                         NonFiniteError, OptionError, RepeatedVertexError, ShapeError,
+                         SolveError, TetlapError)
+    from .mesh import Mesh, UpdateInfo
+    from .properties import Report, check
+    from .regular import RegularWeights, regular_weights

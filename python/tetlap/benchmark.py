@@ -5,7 +5,8 @@ Every case is timed in the same process, interleaved (one repetition of every ca
 the next repetition), and reported as the median with its ratio to the floor (gathering
 ``V[T]`` in the mesh's own order and writing the three CSR arrays of the result: the
 memory traffic any assembler must do) and to ``igl.cotmatrix`` (pip ``libigl``) when it is
-installed.
+installed (``igl_cotmatrix_over_this`` is None without it). ``tetlap bench`` (in
+:mod:`tetlap.cli.bench`) runs it and prints the records as a table or JSON.
 
 Mesh kinds: ``kuhn`` (a jittered Kuhn grid of the unit cube, near-perfect memory order),
 ``delaunay`` (``scipy.spatial.Delaunay`` of uniform random points, in qhull's own order),
@@ -17,10 +18,8 @@ vertex: the well-ordered reference for the cost of random order) and any mesh fi
 
 from __future__ import annotations
 
-import json
 import pathlib
 import statistics
-import sys
 import time
 from typing import Callable
 
@@ -194,7 +193,8 @@ def time_mesh(label: str, V, T, threads=None, repeat: int = 5, only=None,
         "mesh": label, "n_tets": int(len(T)), "n_vertices": int(len(V)), "case": name,
         "threads": threads, "median_s": t, "mtets_per_s": len(T) / t / 1e6,
         "vs_floor": t / medians["floor"],
-        "igl_cotmatrix_over_this": medians.get("igl.cotmatrix", float("nan")) / t,
+        "igl_cotmatrix_over_this": (medians["igl.cotmatrix"] / t
+                                    if "igl.cotmatrix" in medians else None),
     } for name, t in medians.items()]
 
 
@@ -212,32 +212,3 @@ def run(kinds=KINDS, sizes=("100k",), files=(), threads=None, repeat=5, only=Non
         V, T = io.read(path)
         records += time_mesh(pathlib.Path(path).name, V, T, threads, repeat, only, progress)
     return records
-
-
-def table(records) -> str:
-    """The records as an aligned text table."""
-    width = max([len(r["mesh"]) for r in records] + [4])
-    lines = [f"{'mesh':<{width}} {'tets':>9} {'case':<32} {'median':>10} {'Mtets/s':>8} "
-             f"{'x floor':>8} {'igl.cot / this':>14}"]
-    for r in records:
-        lines.append(f"{r['mesh']:<{width}} {r['n_tets']:>9} {r['case']:<32} "
-                     f"{1e3 * r['median_s']:>8.2f}ms {r['mtets_per_s']:>8.2f} "
-                     f"{r['vs_floor']:>8.2f} {r['igl_cotmatrix_over_this']:>14.2f}")
-    return "\n".join(lines)
-
-
-def main(args) -> int:
-    """``tetlap bench`` (arguments parsed by :mod:`tetlap.cli`)."""
-    sizes = args.sizes or (["10k", "100k"] if args.quick else ["100k", "1M"])
-    kinds = args.kinds or (["kuhn", "delaunay"] if args.quick else list(KINDS))
-    if args.mesh and not args.kinds:
-        kinds = []
-    records = run(kinds, sizes, args.mesh or (), threads=args.threads,
-                  repeat=args.repeat or (3 if args.quick else 5), only=args.operators,
-                  progress=not args.json)
-    print(json.dumps(records, indent=1) if args.json else table(records))
-    return 0
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit("run it as: tetlap bench")

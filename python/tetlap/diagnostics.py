@@ -273,6 +273,7 @@ def _summary(V, T, rtol: float = DELAUNAY_RTOL) -> tuple[dict, np.ndarray]:
         "mesh_volume": float(np.abs(volume).sum()),
         "non_delaunay_face_fraction": None,
         "non_delaunay_tet_fraction": None,
+        "n_non_delaunay_faces": None,
     }
     if in_r3:
         flags = _core.non_delaunay(V, T, interior, float(rtol))

@@ -35,6 +35,12 @@ so the move is finally scaled by the factor among ``1, 1/2, ..., 1/64, 0`` that 
 fewest negative interior weights (the largest such factor): the result never has more
 negative interior weights than the input.
 
+The objective is :class:`Objective`; the two safeguards are :func:`keep_orientation` and
+:func:`fewest_negative_weights`. A mesh far outside everyday units (a bounding box beyond
+``2^64`` or below ``2^-64``) is moved in a copy rescaled by a power of two (exact), and a
+mesh whose tet volumes leave the float64 range is refused
+(:class:`tetlap.DegenerateElementError`), as the assembly refuses it.
+
 >>> import tetlap
 >>> from tetlap.improve import improve
 >>> V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)
@@ -47,19 +53,19 @@ True
 
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import _arrays, assembly, derivatives, diagnostics
+from . import _arrays, _options, assembly, derivatives, diagnostics
+from ._float_range import check_float_range, unit_scale
 from .errors import ShapeError
+from .properties import negative_weights
 
-__all__ = ["improve", "Improvement", "dual_statistics", "format_table"]
+__all__ = ["improve", "Improvement", "Objective", "keep_orientation",
+           "fewest_negative_weights", "dual_statistics"]
 
-#: A weight counts as negative when ``w < -NEGATIVE_TOL * max|w|`` (as in tetlap.check).
-NEGATIVE_TOL = 1e-12
 #: Tets may lose this fraction of their quality before the barrier acts.
 R0 = 0.5
 #: Below this quality ratio the barrier is quadratic (finite at inverted tets).
@@ -68,18 +74,18 @@ R1 = 1e-3
 
 def dual_statistics(V, T) -> dict:
     """Numbers :func:`improve` reports: negative dual weights over the edges not both on
-    the boundary, non-Delaunay interior faces, the minimum dihedral angle (degrees) and
-    the smallest tet volume, for ``(V, T)`` in R^3."""
+    the boundary (:func:`tetlap.check`'s count), non-Delaunay interior faces, the minimum
+    dihedral angle (degrees) and the smallest tet volume, for ``(V, T)`` in R^3."""
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
     edges, w = assembly.edge_weights(V, T, "dual", degenerate="skip")
     on_boundary = diagnostics.boundary_vertices(T, len(V))
     inner = ~(on_boundary[edges[:, 0]] & on_boundary[edges[:, 1]])
-    negative = w < -NEGATIVE_TOL * np.abs(w).max()
+    L = assembly.laplacian(V, T, "dual", degenerate="skip")
     vol = np.abs(diagnostics.signed_volumes(V, T))
     return {
         "interior_edges": int(inner.sum()),
-        "negative_interior": int((negative & inner).sum()),
+        "negative_interior": negative_weights(L, V, T, on_boundary)[1],
         "min_interior_weight": float(w[inner].min()) if inner.any() else 0.0,
         "non_delaunay_faces": int(diagnostics.non_delaunay_faces(V, T).sum()),
         "interior_faces": int(len(diagnostics.interior_faces(T)[0])),
@@ -154,6 +160,129 @@ def _scatter(T, per_corner, n):
                      for c in range(3)], axis=1)
 
 
+class Objective:
+    """The objective ``Phi`` of the module docs on one mesh, as L-BFGS-B calls it.
+
+    ``x`` holds the coordinates of the free vertices, flattened: (3 k,) float64, ``k`` =
+    ``len(self.free)``; ``positions(x)`` puts them into a copy of ``V0``. Calling the
+    objective returns ``(Phi, dPhi/dx)`` and counts the evaluation.
+
+    Parameters
+    ----------
+    V0 : (n, 3) float64, T : (m, 4) int64
+        The validated input mesh.
+    fixed : (n,) bool
+        Vertices that must not move besides the boundary and the vertices of flat tets.
+    margin, barrier, regularization : float
+        ``delta``, ``mu`` and ``lambda`` of the module docs.
+    threads : int or None
+        Worker threads of the core.
+    """
+
+    def __init__(self, V0, T, fixed, *, margin, barrier, regularization, threads):
+        n = len(V0)
+        self.V0, self.T, self.threads = V0, T, threads
+        self.margin, self.barrier, self.regularization = margin, barrier, regularization
+        self.edges = diagnostics.mesh_edges(T)
+        self.lengths = np.linalg.norm(V0[self.edges[:, 0]] - V0[self.edges[:, 1]], axis=1)
+        self.h = float(self.lengths.mean())
+        with np.errstate(invalid="ignore", divide="ignore"):
+            q0, _ = _quality_and_gradient(V0, T)
+        # flat tets (and tets with coincident corners, q = NaN) neither move nor count
+        size = np.abs(q0)
+        largest = 0.0 if np.isnan(size).all() else np.nanmax(size)
+        flat = ~(size > 1e-12 * largest)
+        self.on_boundary = diagnostics.boundary_vertices(T, n)
+        self.inner = ~(self.on_boundary[self.edges[:, 0]] & self.on_boundary[self.edges[:, 1]])
+        free = diagnostics.referenced_vertices(T, n) & ~self.on_boundary & ~fixed
+        free[T[flat].ravel()] = False
+        self.free = np.flatnonzero(free)
+        self.kept, self.q0 = T[~flat], q0[~flat]
+        self.evaluations = 0
+
+    def start(self) -> np.ndarray:
+        """The free vertices' input coordinates, (3 k,)."""
+        return self.V0[self.free].ravel()
+
+    def bounds(self, step: float) -> np.ndarray:
+        """(3 k, 2) L-BFGS-B bounds: a box of half-width ``step`` times each free vertex's
+        shortest edge around its start."""
+        shortest = np.full(len(self.V0), np.inf)
+        np.minimum.at(shortest, self.edges[:, 0], self.lengths)
+        np.minimum.at(shortest, self.edges[:, 1], self.lengths)
+        half = np.repeat(step * shortest[self.free], 3)
+        x0 = self.start()
+        return np.column_stack([x0 - half, x0 + half])
+
+    def positions(self, x) -> np.ndarray:
+        """(n, 3): ``V0`` with the free vertices at ``x``."""
+        X = self.V0.copy()
+        X[self.free] = x.reshape(-1, 3)
+        return X
+
+    def quality_ratios(self, X) -> np.ndarray:
+        """``q_t(X) / q_t(V0)`` of the tets that count (not flat at the start)."""
+        return _quality_and_gradient(X, self.kept)[0] / self.q0
+
+    def negative_interior(self, X) -> int:
+        """Negative dual weights at ``X`` on the edges not both on the boundary."""
+        L = assembly.laplacian(X, self.T, "dual", degenerate="skip", threads=self.threads)
+        return negative_weights(L, X, self.T, self.on_boundary)[1]
+
+    def __call__(self, x) -> tuple[float, np.ndarray]:
+        self.evaluations += 1
+        X, T, h, n = self.positions(x), self.T, self.h, len(self.V0)
+        _, w = assembly.edge_weights(X, T, "dual", degenerate="skip", threads=self.threads)
+        gap = np.maximum(0.0, self.margin - w[self.inner] / h)
+        phi = float(gap @ gap)
+        g = np.zeros_like(X)
+        if gap.any():
+            g += derivatives.vjp(X, T, "dual", dL=(self.edges[self.inner], -2 * gap / h),
+                                 degenerate="skip", threads=self.threads).dV
+        q, dq = _quality_and_gradient(X, self.kept)
+        b, db = _barrier(q / self.q0)
+        phi += self.barrier * float(b.sum())
+        g += self.barrier * _scatter(self.kept, dq * (db / self.q0)[:, None, None], n)
+        d = (X[self.free] - self.V0[self.free]) / h
+        phi += self.regularization * float((d * d).sum())
+        grad = g[self.free] + 2 * self.regularization * d / h
+        return phi, grad.ravel()
+
+
+def keep_orientation(objective: Objective, x0, x) -> float:
+    """The largest factor ``alpha`` among ``1, 1/2, ..., 2^-30, 0`` for which the move
+    ``x0 + alpha (x - x0)`` turns no tet over nor flattens one below ``R1`` of its
+    starting quality."""
+    alpha = 1.0
+    while alpha > 0:
+        if np.all(objective.quality_ratios(objective.positions(x0 + alpha * (x - x0))) > R1):
+            break
+        alpha = alpha / 2 if alpha > 2**-30 else 0.0
+    return alpha
+
+
+def fewest_negative_weights(objective: Objective, x0, x, alpha: float) -> float:
+    """The factor among ``alpha, alpha / 2, ..., alpha / 64, 0`` whose move leaves the
+    fewest negative interior weights (the largest such): the penalty cannot tell a weight
+    of ``-1e-9 h`` from one of ``+1e-9 h``, the count can, so the result never has more
+    than the input (factor 0)."""
+    if alpha == 0:
+        return alpha
+    candidates = [alpha * 0.5**k for k in range(7)] + [0.0]
+    counts = [objective.negative_interior(objective.positions(x0 + a * (x - x0)))
+              for a in candidates]
+    return candidates[int(np.argmin(counts))]  # the first, largest, of the fewest
+
+
+def _check_options(margin, barrier, regularization, step, max_iterations, threads) -> None:
+    _options.non_negative(margin, "margin")
+    _options.non_negative(barrier, "barrier")
+    _options.non_negative(regularization, "regularization")
+    _options.positive(step, "step")
+    _options.count(max_iterations, "max_iterations")
+    _options.threads(threads)
+
+
 def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
             regularization: float = 1e-4, step: float = 0.3, max_iterations: int = 200,
             threads: int | None = None, progress=None) -> Improvement:
@@ -168,15 +297,15 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
     fixed : (n,) bool array-like, optional
         Vertices that must not move, besides the boundary (e.g. vertices on an interior
         interface).
-    margin : float, default 0.02
+    margin : float >= 0, default 0.02
         ``delta``: weights below ``delta h`` are penalised (``h`` the mean edge length).
-    barrier : float, default 10
+    barrier : float >= 0, default 10
         ``mu``, the weight of the quality barrier.
-    regularization : float, default 1e-4
+    regularization : float >= 0, default 1e-4
         ``lambda``, the weight of the displacement term.
-    step : float, default 0.3
+    step : float > 0, default 0.3
         Every vertex stays within a box of half-width ``step`` times its shortest edge.
-    max_iterations : int, default 200
+    max_iterations : int >= 1, default 200
         L-BFGS-B iterations.
     threads : int, optional
         Worker threads of tetlap's core (the result does not depend on it).
@@ -189,6 +318,15 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
         The new positions ``V``, :func:`dual_statistics` ``before`` and ``after``, the
         objective, counts and time. Deterministic for a given input.
 
+    Raises
+    ------
+    OptionError
+        An option outside its range (NaN and infinities included), before any work.
+    ShapeError
+        Points not in R^3, or ``fixed`` of the wrong shape.
+    DegenerateElementError
+        A tet whose volume leaves the float64 range (see the module docs).
+
     Notes
     -----
     The objective and its safeguards are in the module docs. It needs SciPy's optimiser;
@@ -197,66 +335,24 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
     """
     from scipy.optimize import minimize
 
+    _check_options(margin, barrier, regularization, step, max_iterations, threads)
     V0 = _arrays.points(V)
     T = _arrays.elements(T, 4)
     if V0.shape[1] != 3:
         raise ShapeError(f"improve needs points in R^3, got dimension {V0.shape[1]}")
     n = len(V0)
-    before = dual_statistics(V0, T)
-    edges = diagnostics.mesh_edges(T)
-    lengths = np.linalg.norm(V0[edges[:, 0]] - V0[edges[:, 1]], axis=1)
-    h = float(lengths.mean())
-    with np.errstate(invalid="ignore", divide="ignore"):
-        q0, _ = _quality_and_gradient(V0, T)
-    # flat tets (and tets with coincident corners, q = NaN) neither move nor count
-    degenerate = ~(np.abs(q0) > 1e-12 * np.nanmax(np.abs(q0)))
-    on_boundary = diagnostics.boundary_vertices(T, n)
-    inner = ~(on_boundary[edges[:, 0]] & on_boundary[edges[:, 1]])
-    edges_in = edges[inner]
-    free = diagnostics.referenced_vertices(T, n) & ~on_boundary
-    free[T[degenerate].ravel()] = False
-    if fixed is not None:
+    if fixed is None:
+        fixed = np.zeros(n, dtype=bool)
+    else:
         fixed = np.asarray(fixed, dtype=bool)
         if fixed.shape != (n,):
             raise ShapeError(f"fixed must have shape ({n},), got {fixed.shape}")
-        free &= ~fixed
-    idx = np.flatnonzero(free)
-    shortest = np.full(n, np.inf)
-    np.minimum.at(shortest, edges[:, 0], lengths)
-    np.minimum.at(shortest, edges[:, 1], lengths)
-    half = step * shortest[idx]
-    x0 = V0[idx].ravel()
-    bounds = np.column_stack([x0 - np.repeat(half, 3), x0 + np.repeat(half, 3)])
-    keep = ~degenerate
-    Tk, q0k = T[keep], q0[keep]
-    counter = {"evaluations": 0}
-
-    def positions(x):
-        X = V0.copy()
-        X[idx] = x.reshape(-1, 3)
-        return X
-
-    def objective(x):
-        counter["evaluations"] += 1
-        X = positions(x)
-        _, w = assembly.edge_weights(X, T, "dual", degenerate="skip", threads=threads)
-        s = w[inner] / h
-        gap = np.maximum(0.0, margin - s)
-        phi = float(gap @ gap)
-        g = np.zeros_like(X)
-        if gap.any():
-            dw = -2 * gap / h
-            g += derivatives.vjp(X, T, "dual", dL=(edges_in, dw), degenerate="skip",
-                                 threads=threads).dV
-        q, dq = _quality_and_gradient(X, Tk)
-        b, db = _barrier(q / q0k)
-        phi += barrier * float(b.sum())
-        g += barrier * _scatter(Tk, dq * (db / q0k)[:, None, None], n)
-        d = (X[idx] - V0[idx]) / h
-        phi += regularization * float((d * d).sum())
-        grad = g[idx] + 2 * regularization * d / h
-        return phi, grad.ravel()
-
+    check_float_range(V0, T)
+    before = dual_statistics(V0, T)
+    scale = unit_scale(V0)
+    objective = Objective(V0 / scale, T, fixed, margin=margin, barrier=barrier,
+                          regularization=regularization, threads=threads)
+    x0 = objective.start()
     history: list[float] = []
     phi0 = objective(x0)[0]
     start = time.perf_counter()
@@ -266,67 +362,24 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
         if progress is not None:
             progress(len(history), history[-1])
 
-    if len(idx):
-        res = minimize(objective, x0, jac=True, method="L-BFGS-B", bounds=bounds,
-                       callback=after_iteration,
+    if len(objective.free):
+        res = minimize(objective, x0, jac=True, method="L-BFGS-B",
+                       bounds=objective.bounds(step), callback=after_iteration,
                        options={"maxiter": max_iterations, "maxcor": 20})
         x, iterations, message = res.x, int(res.nit), str(res.message)
     else:
         x, iterations, message = x0, 0, "no vertex can move"
-    # never return an inverted (or collapsed) tet: scale the move back until none is
-    alpha = 1.0
-    while alpha > 0:
-        X = positions(x0 + alpha * (x - x0))
-        q, _ = _quality_and_gradient(X, Tk)
-        if np.all(q / q0k > R1):
-            break
-        alpha = alpha / 2 if alpha > 2**-30 else 0.0
+    alpha = keep_orientation(objective, x0, x)
     if alpha < 1:
         message += f"; move scaled by {alpha:g} to keep every tet's orientation"
-    # never return more negative weights than the input: the penalty cannot tell a weight
-    # of -1e-9 h from one of +1e-9 h, the count can; keep the scaled move with the fewest
-    def negatives(a):
-        _, w = assembly.edge_weights(positions(x0 + a * (x - x0)), T, "dual",
-                                     degenerate="skip", threads=threads)
-        return int((w[inner] < -NEGATIVE_TOL * np.abs(w).max()).sum())
-
-    if alpha > 0:
-        candidates = [alpha * 0.5**k for k in range(7)] + [0.0]
-        counts = [negatives(a) for a in candidates]
-        best = candidates[int(np.argmin(counts))]  # the first, largest, of the fewest
-        if best < alpha:
-            message += f"; move scaled by {best / alpha if alpha else 0:g} for fewer negative weights"
-        alpha = best
+    best = fewest_negative_weights(objective, x0, x, alpha)
+    if best < alpha:
+        message += f"; move scaled by {best / alpha:g} for fewer negative weights"
     seconds = time.perf_counter() - start
-    x = x0 + alpha * (x - x0)
+    x = x0 + best * (x - x0)
     phi1 = objective(x)[0]
-    X = positions(x)
+    X = objective.positions(x) * scale
     return Improvement(V=X, before=before, after=dual_statistics(X, T), objective=(phi0, phi1),
-                       iterations=iterations, evaluations=counter["evaluations"],
-                       seconds=seconds, message=message, moved=len(idx),
+                       iterations=iterations, evaluations=objective.evaluations,
+                       seconds=seconds, message=message, moved=len(objective.free),
                        history=history)
-
-
-# ------------------------------------------------------------------ report
-
-_ROWS = [
-    ("negative interior dual weights", "negative_interior", "{:d}"),
-    ("min interior dual weight", "min_interior_weight", "{:.3e}"),
-    ("non-Delaunay interior faces", "non_delaunay_faces", "{:d}"),
-    ("min dihedral angle (deg)", "min_dihedral_deg", "{:.2f}"),
-    ("min tet volume", "min_volume", "{:.3e}"),
-]
-
-
-def format_table(result: Improvement) -> str:
-    """The before/after numbers as a small text table."""
-    width = max(len(r[0]) for r in _ROWS)
-    lines = [f"{'':<{width}}  {'before':>12}  {'after':>12}"]
-    for label, key, fmt in _ROWS:
-        lines.append(f"{label:<{width}}  {fmt.format(result.before[key]):>12}  "
-                     f"{fmt.format(result.after[key]):>12}")
-    lines.append(f"{result.moved} vertices free to move, {result.iterations} iterations, "
-                 f"{result.evaluations} evaluations, {result.seconds:.2f} s "
-                 f"(objective {result.objective[0]:.4g} -> {result.objective[1]:.4g}); "
-                 f"{result.message}")
-    return "\n".join(lines)

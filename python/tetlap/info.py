@@ -2,27 +2,45 @@
 
 The mesh part is :func:`tetlap.diagnostics.summary`; each operator part is a
 :class:`tetlap.Report` of :func:`tetlap.check` (the primal with the barycentric mass, the
-dual with the circumcentric mass). Every step costs ``O(size of the mesh)`` and answers
-Ctrl-C.
+dual with the circumcentric mass); the regular part is :func:`regular_summary`. Every step
+costs ``O(size of the mesh)`` and answers Ctrl-C. The fields of the report (the JSON of
+``tetlap info --json``) are documented in the API reference, "The tetlap info JSON",
+versioned by :data:`SCHEMA_VERSION`.
+
+A mesh whose tet volumes leave the float64 range (coordinates beyond about ``1e100`` or
+below ``1e-100`` for a tet of unit shape) is refused with
+:class:`tetlap.DegenerateElementError` before any work, as the assembly refuses it: its
+volumes, masses and "degenerate" counts would be wrong.
 
 Example
 -------
 >>> import tetlap
 >>> r = tetlap.info.report(*tetlap.meshes.cube(3))
->>> r["mesh"]["n_tets"], r["primal"]["nsd"], r["dual"]["n_negative_interior"]
-(162, True, 0)
+>>> r["schema_version"], r["mesh"]["n_tets"], r["primal"]["nsd"], r["dual"]["n_negative_interior"]
+(2, 162, True, 0)
 """
 
 from __future__ import annotations
 
 import time
 
-from . import _arrays, assembly, diagnostics
-from ._progress import Stages
-from .properties import NEGATIVE_TOL, _check
+import numpy as np
 
-__all__ = ["report", "plot", "PAIRS", "REGULAR_TIME_LIMIT", "REGULAR_TIME_SHARE",
-           "REGULAR_MAX_TETS"]
+from . import _arrays, _options, assembly, diagnostics
+from ._float_range import check_float_range, unit_scale
+from ._progress import Stages
+from .errors import ShapeError, TetlapError
+from .properties import NEGATIVE_TOL, _check, check
+from .regular import RegularWeights, regular_weights
+
+__all__ = ["report", "regular_summary", "plot", "PAIRS", "SCHEMA_VERSION",
+           "REGULAR_TIME_LIMIT", "REGULAR_TIME_SHARE", "REGULAR_MAX_TETS"]
+
+#: The version of the report's layout (its keys and their meaning), the first key of
+#: ``tetlap info --json``; raised with every change, each recorded in the CHANGELOG.
+#: 1: the counts at the top level, ``negative_weight_fraction_interior``; 2: the counts
+#: under ``"mesh"``, ``negative_fraction_interior``, ``schema_version`` itself.
+SCHEMA_VERSION = 2
 
 #: The operators of the report: (Laplacian kind, mass kind).
 PAIRS = (("primal", "barycentric"), ("dual", "circumcentric"))
@@ -56,8 +74,8 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
         Report each step on stderr (default: when stderr is a terminal).
     regular : bool, default True
         Add the ``regular`` section: is the mesh regular (weighted Delaunay), and what the
-        weighted dual with the weights found gains (:func:`tetlap.regular.summary`).
-    regular_time_limit : float, optional
+        weighted dual with the weights found gains (:func:`regular_summary`).
+    regular_time_limit : float > 0, optional
         Seconds for that search; past it its ``status`` is ``"undecided"``. Default:
         half the time the rest of the report took, clamped to [1, 10] seconds
         (:data:`REGULAR_TIME_SHARE`, :data:`REGULAR_TIME_LIMIT`), and no search above
@@ -66,22 +84,33 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
     Returns
     -------
     dict
-        ``{"mesh": diagnostics summary, "primal": Report dict, "dual": Report dict,
-        "regular": dict or None}``; each Report dict includes its mass checks
-        (``mass_min``, ``mass_nonpositive``, ``mass_total``, ``mesh_volume``). ``regular``
-        is :func:`tetlap.regular.summary` (``status`` "regular", "not regular" or
-        "undecided", ``margin``, ``negative_interior_weights`` of the dual, the weighted
-        dual and the primal, ...), ``{"status": "n/a", "reason": ...}`` when it does not
-        apply (points not in R^3, flat tets), None with ``regular=False``.
+        ``{"schema_version": SCHEMA_VERSION, "mesh": diagnostics summary, "primal": Report
+        dict, "dual": Report dict, "regular": dict or None}``; each Report dict includes
+        its mass checks (``mass_min``, ``mass_nonpositive``, ``mass_total``,
+        ``mesh_volume``). ``regular`` is :func:`regular_summary` (``status`` "regular",
+        "not regular" or "undecided", ``margin``, ``negative_interior_weights`` of the
+        dual, the weighted dual and the primal, ...), ``{"status": "n/a", "reason": ...}``
+        when it does not apply (points not in R^3, flat tets, a big mesh without a time
+        limit), None with ``regular=False``. Every float is finite.
+
+    Raises
+    ------
+    OptionError
+        ``regular_time_limit`` not a positive number (before any work).
+    DegenerateElementError
+        A tet volume beyond the float64 range (see the module docs), before any work.
     """
+    if regular_time_limit is not None:
+        _options.positive(regular_time_limit, "regular_time_limit")
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
+    check_float_range(V, T)
     start = time.perf_counter()
     step = Stages("tetlap info", progress)
     step("mesh diagnostics")
     summary, boundary = diagnostics._summary(V, T)
-    result = {"mesh": summary}
+    result = {"schema_version": SCHEMA_VERSION, "mesh": summary}
     for lap, mass in PAIRS:
         step(f"{lap} Laplacian and {mass} mass")
         L, M = assembly.operators(V, T, lap, mass, degenerate="skip")
@@ -107,36 +136,109 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
 
 
 def _regular_section(V, T, result, time_limit) -> dict:
-    """:func:`tetlap.regular.summary` with the plain dual's and the primal's reports
-    reused; ``{"status": "n/a", "reason": ...}`` where regularity is not defined."""
-    from .errors import TetlapError
-    from .regular import summary
-
+    """:func:`regular_summary` with the plain dual's and the primal's reports reused;
+    ``{"status": "n/a", "reason": ...}`` where regularity is not defined."""
     if V.shape[1] != 3:
         return {"status": "n/a", "reason": f"points in R^{V.shape[1]}, not R^3"}
     try:
-        return summary(V, T, time_limit=time_limit,
-                       reports={"dual": result["dual"], "primal": result["primal"]})
+        return regular_summary(V, T, time_limit=time_limit,
+                               reports={"dual": result["dual"], "primal": result["primal"]})
     except TetlapError as error:       # flat tets: no power centers
-        return {"status": "n/a", "reason": str(error).splitlines()[0]}
+        return {"status": "n/a", "reason": " ".join(str(error).split())}
 
 
-def plot(V, T=None, folder=".") -> list:
-    """Histograms of a mesh's dihedral angles, of the edge weights of both Laplacians and of
-    the barycentric and circumcentric masses, as PNG files in ``folder`` (created if
-    needed); returns their paths. Needs matplotlib (``pip install 'tetlap[experiments]'``).
+def regular_summary(V, T, result: RegularWeights | None = None, *, nsd: bool = False,
+                    time_limit: float | None = None, reports: dict | None = None) -> dict:
+    """Regularity and what the weighted dual gains: the ``regular`` section of the report.
+
+    Parameters
+    ----------
+    V : (n, 3) array-like of real numbers
+    T : (m, 4) array-like of integers
+    result : RegularWeights, optional
+        :func:`tetlap.regular_weights` of this mesh (computed when None, with
+        ``time_limit``; on a copy rescaled by a power of two when the mesh is far outside
+        everyday units, so that its NumPy steps stay in the float64 range).
+    nsd : bool, default False
+        Also check negative semidefiniteness of the three Laplacians (slow on big meshes).
+    time_limit : float, optional
+        Seconds for :func:`tetlap.regular_weights` when ``result`` is None (None: no
+        limit); past it the verdict is ``"undecided"``.
+    reports : dict, optional
+        ``{"dual": ..., "primal": ...}``, :meth:`tetlap.Report.to_dict` of the plain dual
+        and the primal on this mesh (``tetlap info`` has them): their counts are used
+        instead of checking those two Laplacians again.
+
+    Returns
+    -------
+    dict
+        ``regular`` (bool), ``status`` (``"regular"``, ``"not regular"`` or
+        ``"undecided"``), ``margin``, ``margin_plain``, ``n_non_delaunay_faces``,
+        ``n_weighted_vertices``, ``negative_interior_weights`` ({"dual",
+        "weighted_dual", "primal"}: counts on edges not both on the boundary), ``nsd``
+        (same keys, or None), ``linear_precision_weighted_dual`` (bool, None without
+        interior vertices), ``masses_lost`` (count of positive plain circumcentric masses
+        that the weights make non-positive), ``mass_min`` ({"dual", "weighted_dual"}),
+        ``violated_faces`` (count), ``certificate_faces`` (count), ``iterations``,
+        ``notes``, ``seconds`` (of :func:`tetlap.regular_weights`).
 
     Example
     -------
-    >>> import tempfile, tetlap
-    >>> files = tetlap.info.plot(*tetlap.meshes.cube(3, jitter=0.2), tempfile.mkdtemp())
-    >>> sorted(p.name for p in files)
-    ['dihedral_angles.png', 'masses.png', 'weights.png']
+    >>> import tetlap
+    >>> V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)
+    >>> s = tetlap.info.regular_summary(V, T)
+    >>> s["status"], s["negative_interior_weights"]["weighted_dual"]
+    ('regular', 0)
     """
-    import pathlib
+    V = _arrays.points(V)
+    T = _arrays.elements(T, 4)
+    if V.shape[1] != 3:
+        raise ShapeError(f"regular weights need points in R^3, got V of shape {V.shape}")
+    scale = 1.0
+    if result is None:
+        scale = unit_scale(V)
+        result = regular_weights(V / scale, T, time_limit=time_limit)
+    if len(result.weights) != len(V):
+        raise ShapeError(f"the result has {len(result.weights)} weights, the mesh "
+                         f"{len(V)} vertices")
+    reports = dict(reports or {})
+    weights = result.weights * scale**2 if result.weights.any() else None
+    kinds = {"dual": ("dual", None), "weighted_dual": ("dual", weights),
+             "primal": ("primal", None)}
+    for key, (kind, w) in kinds.items():
+        if key == "weighted_dual" and w is None and not nsd and "dual" in reports:
+            reports[key] = reports["dual"]
+        if key not in reports or (nsd and reports[key].get("nsd") is None):
+            L = assembly.laplacian(V, T, kind, weights=w, degenerate="skip")
+            reports[key] = check(L, V, T, nsd=nsd).to_dict()
+    return {
+        "regular": bool(result.regular),
+        "status": result.status,
+        "margin": result.margin,
+        "margin_plain": result.margin_plain,
+        "n_non_delaunay_faces": result.n_violated_plain,
+        "n_weighted_vertices": result.n_weighted_vertices,
+        "negative_interior_weights": {k: int(reports[k]["n_negative_interior"])
+                                      for k in kinds},
+        "nsd": {k: reports[k]["nsd"] for k in kinds} if nsd else None,
+        "linear_precision_weighted_dual": reports["weighted_dual"]["linear_precision_ok"],
+        "masses_lost": int(len(result.masses_lost)),
+        "mass_min": {"dual": result.mass_min_plain * scale**3,
+                     "weighted_dual": result.mass_min_weighted * scale**3},
+        "violated_faces": int(len(result.violated_faces)),
+        "certificate_faces": int(len(result.certificate_faces)),
+        "iterations": result.iterations,
+        "notes": list(result.notes),
+        "seconds": result.seconds,
+    }
 
-    import numpy as np
 
+# ---- plots ----------------------------------------------------------------------------
+
+
+def pyplot():
+    """matplotlib's ``pyplot`` on the Agg backend, or an ImportError saying how to install
+    it (``tetlap info --plot`` calls it before any analysis)."""
     try:
         import matplotlib
 
@@ -144,47 +246,110 @@ def plot(V, T=None, folder=".") -> list:
         import matplotlib.pyplot as plt
     except ImportError:
         raise ImportError("info plots need matplotlib: pip install 'tetlap[experiments]'") from None
+    return plt
+
+
+def spread_bins(values, per_decade: int = 8):
+    """Histogram bins and a linear threshold for values that may span many orders of
+    magnitude and both signs (the weights and masses of a mesh with slivers): log-spaced
+    bins for ``|x|`` from ``threshold`` (a thousandth of the median non-zero ``|x|``) up to
+    ``max|x|``, ``per_decade`` per decade (at most 400), mirrored for negative values, and
+    one bin ``[-threshold, threshold]``; draw them on ``symlog`` axes with that threshold.
+
+    >>> bins, threshold = spread_bins([-1.0, 0.5, 2.0, 1e3])
+    >>> threshold, float(bins[0]) < -1 < 1e3 <= float(bins[-1])
+    (0.0015, True)
+    """
+    size = np.abs(np.asarray(values, dtype=np.float64))
+    nonzero = size[size > 0]
+    threshold = 1e-3 * float(np.median(nonzero)) if nonzero.size else 1.0
+    top = max(float(size.max()) if size.size else 0.0, 10 * threshold)
+    count = min(400, int(np.ceil(np.log10(top / threshold) * per_decade)))
+    outer = np.geomspace(threshold, top, count + 1)
+    outer[-1] = np.nextafter(top, np.inf)
+    return np.concatenate([-outer[::-1], outer]), threshold
+
+
+def plot(V, T=None, folder=".", name: str = "mesh") -> list:
+    """Histograms of a mesh's dihedral angles, of the edge weights of both Laplacians and of
+    the barycentric and circumcentric masses, as PNG files ``NAME_dihedral_angles.png``,
+    ``NAME_weights.png`` and ``NAME_masses.png`` in ``folder`` (created if needed); returns
+    their paths. Titles name the mesh. Weights and masses are binned on symmetric log
+    scales (:func:`spread_bins`), so that slivers' huge values do not collapse the rest
+    into one bar. Needs matplotlib (``pip install 'tetlap[experiments]'``), checked first.
+
+    Example
+    -------
+    >>> import tempfile, tetlap
+    >>> files = tetlap.info.plot(*tetlap.meshes.cube(3, jitter=0.2), tempfile.mkdtemp(), "cube")
+    >>> sorted(p.name for p in files)
+    ['cube_dihedral_angles.png', 'cube_masses.png', 'cube_weights.png']
+    """
+    import pathlib
+
+    plt = pyplot()
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
+    check_float_range(V, T)
     folder = pathlib.Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
 
-    def save(fig, name):
-        path = folder / name
+    def save(fig, what):
+        path = folder / f"{name}_{what}.png"
         fig.savefig(path, dpi=120, bbox_inches="tight")
         plt.close(fig)
         paths.append(path)
 
+    def spread(ax, values, color):
+        from matplotlib.ticker import NullLocator
+
+        bins, threshold = spread_bins(values)
+        ax.hist(values, bins=bins, color=color)
+        ax.set_xscale("symlog", linthresh=threshold)
+        ax.set_yscale("log")
+        ax.axvline(0, color="k", lw=0.8)
+        # at most three labelled decades a side, none within a decade of the linear part
+        # around 0 (the black line), and a side without values shown only to -threshold
+        low, high = np.log10(threshold), np.floor(np.log10(bins[-1]))
+        step = max(1, int(np.ceil((high - low - 1) / 3)))
+        decades = np.arange(high, low + 1, -step)
+        below, above = (values < -threshold).any(), (values > threshold).any()
+        ax.set_xlim(bins[0] if below else -threshold, bins[-1] if above else threshold)
+        ticks = ([-(10.0**k) for k in decades] if below else []) + (
+            [10.0**k for k in decades[::-1]] if above else [])
+        ax.set_xticks(ticks, [f"${'-' if t < 0 else ''}10^{{{np.log10(abs(t)):.0f}}}$"
+                              for t in ticks])
+        ax.xaxis.set_minor_locator(NullLocator())
+
     angles = diagnostics.dihedral_angles(V, T).ravel()
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.hist(angles[np.isfinite(angles)], bins=90, range=(0, 180))
+    ax.set_yscale("log")
     ax.set_xlabel("dihedral angle (degrees)")
     ax.set_ylabel("tet edges")
-    ax.set_title(f"dihedral angles of {len(T)} tets")
-    save(fig, "dihedral_angles.png")
+    ax.set_title(f"{name}: dihedral angles of its {len(T)} tets")
+    save(fig, "dihedral_angles")
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     for ax, kind in zip(axes, ("primal", "dual")):
         _, w = assembly.edge_weights(V, T, kind, degenerate="skip")
         negative = (w < 0).mean() if len(w) else 0.0
-        ax.hist(w, bins=100, color="tab:blue" if kind == "primal" else "tab:orange")
-        ax.axvline(0, color="k", lw=0.8)
-        ax.set_yscale("log")
-        ax.set_xlabel("edge weight w_ij")
-        ax.set_title(f"{kind}: {100 * negative:.2f}% negative")
-    fig.suptitle("edge weights of the two Laplacians")
-    save(fig, "weights.png")
+        spread(ax, w, "tab:blue" if kind == "primal" else "tab:orange")
+        ax.set_xlabel("edge weight w_ij (symmetric log scale)")
+        ax.set_ylabel("edges")
+        ax.set_title(f"{kind} Laplacian: {100 * negative:.2f}% of the weights negative")
+    fig.suptitle(f"{name}: edge weights of the two Laplacians")
+    save(fig, "weights")
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     for ax, kind in zip(axes, ("barycentric", "circumcentric")):
         m = assembly.mass(V, T, kind, degenerate="skip").diagonal()
-        ax.hist(m, bins=100)
-        ax.axvline(0, color="k", lw=0.8)
-        ax.set_yscale("log")
-        ax.set_xlabel("vertex mass")
-        ax.set_title(f"{kind}: {int((m <= 0).sum())} <= 0")
-    fig.suptitle("lumped masses")
-    save(fig, "masses.png")
+        spread(ax, m, None)
+        ax.set_xlabel("vertex mass (symmetric log scale)")
+        ax.set_ylabel("vertices")
+        ax.set_title(f"{kind} mass: {int((m <= 0).sum())} of {len(m)} vertices with mass <= 0")
+    fig.suptitle(f"{name}: lumped masses")
+    save(fig, "masses")
     return paths

@@ -341,8 +341,8 @@ def _element_certificate(L, V, T, scale: float, tol: float, kind, assembled: boo
             return None
         name = candidate if isinstance(candidate, str) else f"t = {candidate:g} affine"
         groups = details["groups"]
-        covered = (f", except {groups} groups of <= {details['largest']} neighbouring tets whose sums are"
-                   if groups else "")
+        covered = (f", except in {groups} groups of <= {details['largest']} neighbouring tets "
+                   "whose sums are positive semidefinite" if groups else "")
         construction = " (Gram matrices: by construction)" if candidate == "primal" else ""
         return True, None, (f"element certificate: L is the {name} Laplacian (to {gap:.1e}), a sum "
                             f"of per-tet matrices{construction}, each positive semidefinite{covered}")

@@ -5,47 +5,69 @@ raw numbers, at least one PNG figure and ``summary.txt``, and shows a progress b
 ``--quick`` sizes finish in under two minutes on two cores; the full sizes approach the
 paper's. Figures need matplotlib (``pip install 'tetlap[experiments]'``).
 
-========================  ==========================================================
-``dirichlet-shell``       Eq. 28 on a spherical shell: variance on r = 0.75 (Fig. 8/9)
-``eigen-ball``            Dirichlet eigenvalues of the unit ball (Fig. 10/11)
-``negative-weights``      NaN/Inf and negative weights over a mesh corpus (Fig. 12)
-``sphere3``               normals and mean curvature on S^3 in R^4 (Fig. 13/14)
-``flips``                 sign of the Dirichlet-energy change of 2-3 / 3-2 flips (Sec. 9)
-``improve``               vertex moves that remove negative dual weights (tetlap.improve)
-``regular-weights``       weights that make a mesh regular; the Sec. 9 conjecture
-========================  ==========================================================
+:data:`EXPERIMENTS` lists them, once: each name with its module (its ``run(out)``, or
+``run(out, meshes=None)`` for those that read a corpus folder) and what it shows.
+
+>>> from tetlap import experiments
+>>> experiments.NAMES[:2], experiments.CORPUS_NAMES
+(('dirichlet-shell', 'eigen-ball'), ('negative-weights', 'improve', 'regular-weights'))
 """
 
 from __future__ import annotations
 
+import importlib
 import pathlib
+from typing import NamedTuple
 
+from ..errors import OptionError
 from ._output import Output
 
-__all__ = ["NAMES", "Output", "run"]
+__all__ = ["EXPERIMENTS", "NAMES", "CORPUS_NAMES", "Experiment", "Output", "run"]
 
-NAMES = ("dirichlet-shell", "eigen-ball", "negative-weights", "sphere3", "flips", "improve",
-         "regular-weights")
+
+class Experiment(NamedTuple):
+    """One experiment of ``tetlap experiment``."""
+
+    name: str
+    """The command's name for it."""
+    module: str
+    """Its module in this package, imported when it runs."""
+    about: str
+    """What it shows."""
+    corpus: bool = False
+    """It reads a folder of mesh files (``--meshes``)."""
+
+
+EXPERIMENTS = (
+    Experiment("dirichlet-shell", "shell",
+               "Eq. 28 on a spherical shell: variance on r = 0.75 (Fig. 8/9)"),
+    Experiment("eigen-ball", "eigen_ball", "Dirichlet eigenvalues of the unit ball (Fig. 10/11)"),
+    Experiment("negative-weights", "negative_weights",
+               "NaN/Inf and negative weights over a mesh corpus (Fig. 12)", corpus=True),
+    Experiment("sphere3", "sphere3", "normals and mean curvature on S^3 in R^4 (Fig. 13/14)"),
+    Experiment("flips", "flips", "sign of the Dirichlet-energy change of 2-3 / 3-2 flips (Sec. 9)"),
+    Experiment("improve", "improve",
+               "vertex moves that remove negative dual weights (tetlap.improve)", corpus=True),
+    Experiment("regular-weights", "regular_weights",
+               "weights that make a mesh regular; the Sec. 9 conjecture", corpus=True),
+)
+NAMES = tuple(e.name for e in EXPERIMENTS)
+CORPUS_NAMES = tuple(e.name for e in EXPERIMENTS if e.corpus)
 
 
 def run(name: str, *, quick: bool = False, out=None, seed: int = 0, meshes=None) -> pathlib.Path:
-    """Run experiment ``name``; return the folder with its CSV, PNG and summary."""
-    from . import eigen_ball, flips, improve, negative_weights, regular_weights, shell, sphere3
-
-    runners = {
-        "dirichlet-shell": shell.run,
-        "eigen-ball": eigen_ball.run,
-        "negative-weights": negative_weights.run,
-        "sphere3": sphere3.run,
-        "flips": flips.run,
-        "improve": improve.run,
-        "regular-weights": regular_weights.run,
-    }
-    if name not in runners:
-        raise ValueError(f"unknown experiment {name!r}; choose one of {', '.join(NAMES)}")
+    """Run experiment ``name``; return the folder with its CSV, PNG and summary. ``meshes``
+    (a folder of mesh files) only for :data:`CORPUS_NAMES`."""
+    experiment = next((e for e in EXPERIMENTS if e.name == name), None)
+    if experiment is None:
+        raise OptionError(f"unknown experiment {name!r}; choose one of {', '.join(NAMES)}")
+    if meshes is not None and not experiment.corpus:
+        raise OptionError(f"experiment {name} reads no mesh folder (--meshes is for "
+                          f"{', '.join(CORPUS_NAMES)})")
+    module = importlib.import_module(f".{experiment.module}", __name__)
     output = Output(name, out, quick, seed)
-    if name in ("negative-weights", "improve", "regular-weights"):
-        runners[name](output, meshes=meshes)
+    if experiment.corpus:
+        module.run(output, meshes=meshes)
     else:
-        runners[name](output)
+        module.run(output)
     return output.finish()

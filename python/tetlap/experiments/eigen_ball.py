@@ -67,7 +67,7 @@ def run(out) -> None:
                 spectra[(family, size, lap, mass)] = lam
             except Exception as e:  # a non-positive circumcentric mass, for instance
                 row["mean_relative_deviation"] = float("nan")
-                row["note"] = str(e).split(";")[0]
+                row["note"] = " ".join(str(e).split())
             out.row(**row)
 
     for family in dict.fromkeys(r["family"] for r in out.rows):
@@ -75,7 +75,8 @@ def run(out) -> None:
         for lap, mass in PAIRS:
             mine = [r for r in out.rows if r["family"] == family and r["laplacian"] == lap
                     and r["mass"] == mass]
-            devs = ", ".join(f"{r['mean_relative_deviation']:.4f}" for r in mine)
+            devs = ", ".join(f"n/a ({r['note']})" if "note" in r
+                             else f"{r['mean_relative_deviation']:.4f}" for r in mine)
             out.say(f"  {lap:>6} + {mass:<13} mean relative deviation by size: {devs}")
 
     def fig10(plt):

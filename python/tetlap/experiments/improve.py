@@ -29,8 +29,7 @@ from .. import io, meshes as builtin
 from .._progress import bar as progress
 from ..improve import improve
 from . import shell as shell_experiment
-
-SUFFIXES = {".mesh", ".msh", ".vtu", ".vtk", ".ele"}
+from ._corpus import mesh_files
 #: The full run skips corpus meshes with more tets than this (on a 2-core machine an
 #: L-BFGS-B iteration costs about two dual assemblies).
 MAX_TETS = 100_000
@@ -44,10 +43,7 @@ def corpus(folder, quick: bool):
         folder = os.environ.get("TETLAP_MESHES")
     if folder is None or not pathlib.Path(folder).is_dir():
         return []
-    paths = sorted(p for p in pathlib.Path(folder).iterdir() if p.suffix in SUFFIXES)
-    if quick:
-        paths = [p for p in paths if p.name in QUICK]
-    return [(p.name, p) for p in paths]
+    return [(p.name, p) for p in mesh_files(folder, QUICK if quick else None)]
 
 
 def _corpus_row(name, V, T, iterations):

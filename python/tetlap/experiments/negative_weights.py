@@ -8,7 +8,6 @@ dual; a histogram over the corpus. ``--meshes DIR`` reads every mesh file there
 
 from __future__ import annotations
 
-import pathlib
 import warnings
 
 import numpy as np
@@ -16,8 +15,7 @@ import numpy as np
 from .. import assembly, io, meshes
 from ..properties import check
 from .._progress import bar as progress
-
-SUFFIXES = {".mesh", ".msh", ".vtu", ".vtk", ".ele"}
+from ._corpus import mesh_files
 
 
 def built_in(quick: bool, seed: int):
@@ -32,9 +30,9 @@ def built_in(quick: bool, seed: int):
 
 
 def from_folder(folder):
-    for path in sorted(pathlib.Path(folder).iterdir()):
-        if path.suffix in SUFFIXES:
-            yield path.name, lambda path=path: io.read(path)
+    """(name, loader) pairs of the mesh files of ``folder``."""
+    for path in mesh_files(folder):
+        yield path.name, lambda path=path: io.read(path)
 
 
 def run(out, meshes=None) -> None:

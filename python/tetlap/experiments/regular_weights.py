@@ -23,7 +23,6 @@ primal ones on every interior edge, and its residual relative to the weights.
 
 from __future__ import annotations
 
-import pathlib
 import time
 import warnings
 
@@ -34,8 +33,8 @@ from .. import meshes as generate
 from ..properties import check
 from ..regular import regular_weights
 from .._progress import bar as progress
+from ._corpus import mesh_files
 
-SUFFIXES = {".mesh", ".msh", ".vtu", ".vtk", ".ele"}
 #: The corpus meshes of the quick run: small ones, two of them named in issue 16 (the full
 #: run has all 41, with the fish and the microstructure).
 QUICK_CORPUS = ("sofa_raptor_8418.vtu", "libigl_octopus_low.mesh", "sofa_liver_v1.vtu",
@@ -190,10 +189,8 @@ def run(out, meshes=None) -> None:
     # -- part 1: corpus and generated meshes ----------------------------------------------
     jobs = []
     if folder:
-        paths = sorted(p for p in pathlib.Path(folder).iterdir() if p.suffix in SUFFIXES)
-        if quick:
-            paths = [p for p in paths if p.name in QUICK_CORPUS]
-        jobs += [("corpus", p.name, lambda p=p: io.read(p)) for p in paths]
+        jobs += [("corpus", p.name, lambda p=p: io.read(p))
+                 for p in mesh_files(folder, QUICK_CORPUS if quick else None)]
     n = 1000 if quick else 4000
     for a in ((0.03,) if quick else (0.03, 0.1, 0.2, 0.3)):
         jobs.append(("jittered Delaunay", f"ball {n} jitter {a}",

@@ -1,0 +1,75 @@
+"""The float64 range that the mesh reports (``tetlap info``, ``tetlap improve``) need: every
+tet's volume a normal float64, and their sum finite.
+
+The core computes each tet in a frame rescaled by a power of two, so weights and angles
+hold at any scale; volumes and masses are in the caller's units. A tet whose volume is
+``inf``, or is below ``2.2e-308`` although the tet is not flat (its dihedral angles are
+defined), is beyond the range: the assembly refuses it (``degenerate="raise"``) or drops
+its masses (``"skip"``), and a report would count it as flat. For a tet of unit shape that
+is coordinates from about ``1e-100`` to ``1e100``. Flat tets are reported, not refused.
+
+>>> import tetlap
+>>> from tetlap._float_range import check_float_range
+>>> V, T = tetlap.meshes.cube(2)
+>>> check_float_range(V * 1e100, T)
+>>> check_float_range(V * 1e200, T)
+Traceback (most recent call last):
+...
+tetlap.errors.DegenerateElementError: tet 0 has volume inf, beyond the float64 range ...
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _core
+from .errors import DegenerateElementError
+
+__all__ = ["check_float_range", "SMALLEST", "LARGEST"]
+
+#: The normal float64 magnitudes a volume must lie between.
+SMALLEST = float(np.finfo(np.float64).tiny)
+LARGEST = float(np.finfo(np.float64).max)
+_ADVICE = ("a tet of unit shape allows coordinates from about 1e-100 to 1e100: rescale "
+           "the mesh")
+
+
+def check_float_range(V, T) -> None:
+    """Raise :class:`tetlap.DegenerateElementError` (``.element``: the first such tet)
+    unless every tet's volume is a normal float64 or the tet is flat, and the mesh volume
+    is finite. ``V`` (n, d) float64 and ``T`` (m, 4) int64, validated."""
+    volume, dihedral, _ = _core.quality(V, T)
+    size = np.abs(volume)
+    shaped = ~np.isnan(dihedral).any(axis=1)
+    outside = ~(size <= LARGEST) | (shaped & (size < SMALLEST))
+    if outside.any():
+        k = int(np.argmax(outside))
+        raise DegenerateElementError(
+            f"tet {k} has volume {volume[k]:.3g}, beyond the float64 range (normal "
+            f"magnitudes {SMALLEST:.3g} to {LARGEST:.3g}); {_ADVICE}", element=k)
+    with np.errstate(over="ignore"):
+        total = size.sum()
+    if not np.isfinite(total):
+        raise DegenerateElementError(
+            f"the mesh volume (the sum of {len(T)} tet volumes) exceeds the float64 range "
+            f"({LARGEST:.3g}); {_ADVICE}")
+
+
+#: Meshes whose bounding box is between these sizes are computed in their own units.
+UNIT_BAND = (2.0**-64, 2.0**64)
+
+
+def unit_scale(V) -> float:
+    """A power of two ``s`` such that ``V / s`` has a bounding box of size about 1, for the
+    scale-free computations that take powers of lengths in NumPy (the quality barrier of
+    :func:`tetlap.improve.improve`, the regular weights of ``tetlap info``); 1.0 for the
+    meshes of any real-world unit (box between ``2^-64`` and ``2^64``), which are computed
+    as given. Dividing by ``s`` and multiplying back are exact.
+
+    >>> unit_scale([[0.0, 0, 0], [3, 0, 0]]), unit_scale([[0.0, 0, 0], [3e100, 0, 0]]) == 2.0**334
+    (1.0, True)
+    """
+    extent = float(np.ptp(np.asarray(V, dtype=np.float64), axis=0).max())
+    if UNIT_BAND[0] <= extent <= UNIT_BAND[1] or not np.isfinite(extent) or extent == 0:
+        return 1.0
+    return float(2.0 ** np.frexp(extent)[1])

@@ -1,0 +1,61 @@
+"""The checks of the numeric options of the Python-level tools (``improve``, ``info``) and of
+the command's numeric flags: one rule each, named by the caller — a keyword (``step``) in
+the library, a flag (``--step``) on the command line. A bad value raises
+:class:`tetlap.OptionError` before any work; ``threads`` is checked by the core's one check.
+
+>>> from tetlap._options import positive
+>>> positive(0.3, "step")
+0.3
+>>> positive(float("nan"), "--step")
+Traceback (most recent call last):
+...
+tetlap.errors.OptionError: --step must be a positive number
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+from .errors import OptionError
+
+__all__ = ["positive", "non_negative", "count", "threads"]
+
+
+def _real(value) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def positive(value, name: str) -> float:
+    """``value`` if it is a finite number > 0."""
+    if not (_real(value) and math.isfinite(value) and value > 0):
+        raise OptionError(f"{name} must be a positive number")
+    return value
+
+
+def non_negative(value, name: str) -> float:
+    """``value`` if it is a finite number >= 0."""
+    if not (_real(value) and math.isfinite(value) and value >= 0):
+        raise OptionError(f"{name} must be a non-negative number")
+    return value
+
+
+def count(value, name: str, least: int = 1) -> int:
+    """``value`` if it is an integer >= ``least`` (1 or 0)."""
+    if not (isinstance(value, numbers.Integral) and not isinstance(value, bool)
+            and value >= least):
+        kind = {1: "a positive integer", 0: "a non-negative integer"}.get(
+            least, f"an integer >= {least}")
+        raise OptionError(f"{name} must be {kind}")
+    return value
+
+
+def threads(value, name: str = "threads"):
+    """``value`` if the core accepts it as a thread count (None: all cores)."""
+    from . import _core
+
+    try:
+        _core.check_options({"threads": value})
+    except OptionError as e:
+        raise OptionError(str(e) if name == "threads" else f"{name}: {e}") from None
+    return value

@@ -1,0 +1,194 @@
+"""Everything the ``tetlap`` command prints: the JSON documents, the text report of
+``info`` (its regular-weights section included), the tables of ``improve`` and ``bench``,
+the summary of ``experiment`` and the one-line errors. Each function returns the text;
+the commands print it."""
+
+from __future__ import annotations
+
+import json
+import math
+
+# ---- JSON ------------------------------------------------------------------------------
+
+
+def json_document(value, indent: int = 2) -> str:
+    """``value`` as indented JSON that any parser reads: a NaN or infinite float becomes
+    ``null`` and its path is listed under ``"non_finite"`` (added to a top-level dict), so
+    that no value is out of range silently.
+
+    >>> print(json_document({"a": 1.5, "b": [float("inf")]}))
+    {
+      "a": 1.5,
+      "b": [
+        null
+      ],
+      "non_finite": [
+        "b.0"
+      ]
+    }
+    """
+    paths: list[str] = []
+
+    def finite(v, path):
+        if isinstance(v, float) and not math.isfinite(v):
+            paths.append(".".join(path))
+            return None
+        if isinstance(v, dict):
+            return {k: finite(x, path + [str(k)]) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [finite(x, path + [str(i)]) for i, x in enumerate(v)]
+        return v
+
+    clean = finite(value, [])
+    if paths and isinstance(clean, dict):
+        clean["non_finite"] = paths
+    return json.dumps(clean, indent=indent, allow_nan=False)
+
+
+# ---- cells -----------------------------------------------------------------------------
+
+
+def _cell(value) -> str:
+    if value is None:
+        return "n/a"
+    if isinstance(value, bool):
+        return "yes" if value else "NO"
+    if isinstance(value, float):
+        return f"{value:.3e}"
+    return str(value)
+
+
+def _share(count: int, total: int) -> str:
+    return f"{count}/{total} ({100 * count / total:.2f}%)" if total else "0/0"
+
+
+def error_line(error: BaseException) -> str:
+    """``tetlap: error: MESSAGE`` on one line."""
+    return "tetlap: error: " + " ".join(str(error).split())
+
+
+# ---- tetlap info -----------------------------------------------------------------------
+
+
+def info_report(result: dict, source: str) -> str:
+    """The text report of ``tetlap info``: the mesh, the property table of both
+    Laplacians, how semidefiniteness was decided (in full), and the regular section."""
+    m = result["mesh"]
+    lines = [f"mesh: {source}",
+             f"{m['n_vertices']} vertices ({m['n_boundary_vertices']} on the boundary, "
+             f"{m['n_unreferenced_vertices']} unreferenced), {m['n_tets']} tets "
+             f"({_cell(m['n_positive_tets'])} positive, {_cell(m['n_negative_tets'])} negative, "
+             f"{m['n_degenerate_tets']} degenerate, {m['n_duplicate_tets']} duplicate)"]
+    faces = (f"faces: {m['n_boundary_faces']} on the boundary, {m['n_interior_faces']} interior, "
+             f"{m['n_nonmanifold_faces']} non-manifold")
+    if m["non_delaunay_face_fraction"] is not None:
+        faces += (f"; non-Delaunay: {_share(m['n_non_delaunay_faces'], m['n_interior_faces'])} "
+                  f"of the interior faces, {100 * m['non_delaunay_tet_fraction']:.2f}% of the tets")
+    lines.append(faces)
+    angles = ("n/a" if m["min_dihedral_deg"] is None else
+              f"{m['min_dihedral_deg']:.2f} .. {m['max_dihedral_deg']:.2f} deg")
+    lines.append(f"dihedral angles {angles}; "
+                 f"well-centered tets {100 * m['well_centered_tet_fraction']:.2f}%; "
+                 f"volume {m['mesh_volume']:.10g}")
+    p, d = result["primal"], result["dual"]
+    rows = [
+        ("finite", _cell(p["finite"]), _cell(d["finite"])),
+        ("symmetric", _cell(p["symmetric"]), _cell(d["symmetric"])),
+        ("max |row sum|", _cell(p["max_row_sum"]), _cell(d["max_row_sum"])),
+        ("linear precision residual", _cell(p["linear_precision_residual"]),
+         _cell(d["linear_precision_residual"])),
+        ("negative semidefinite", _cell(p["nsd"]), _cell(d["nsd"])),
+        ("min weight", _cell(p["min_weight"]), _cell(d["min_weight"])),
+        ("negative weights", _share(p["n_negative"], p["n_edges"]),
+         _share(d["n_negative"], d["n_edges"])),
+        ("  edges not both on the boundary", _share(p["n_negative_interior"], p["n_edges_interior"]),
+         _share(d["n_negative_interior"], d["n_edges_interior"])),
+        ("mass total (vs volume)", f"{p['mass_total']:.10g}", f"{d['mass_total']:.10g}"),
+        ("mass min", _cell(p["mass_min"]), _cell(d["mass_min"])),
+        ("vertices with mass <= 0", str(p["mass_nonpositive"]), str(d["mass_nonpositive"])),
+    ]
+    widths = [max(len(r[k]) for r in rows + [("property", "primal", "dual")]) for k in range(3)]
+    lines += ["", f"{'property':<{widths[0]}}  {'primal':>{widths[1]}}  {'dual':>{widths[2]}}"]
+    lines += [f"{label:<{widths[0]}}  {a:>{widths[1]}}  {b:>{widths[2]}}" for label, a, b in rows]
+    lines += ["(mass: barycentric with the primal, circumcentric with the dual)", ""]
+    lines += [f"semidefinite ({kind}): {r['nsd_method']}" for kind, r in (("primal", p), ("dual", d))]
+    if result.get("regular") is not None:
+        lines += ["", regular_section(result["regular"])]
+    return "\n".join(lines)
+
+
+def regular_section(r: dict) -> str:
+    """The ``regular`` section of ``tetlap info``: the verdict and what the weights buy
+    (:func:`tetlap.info.regular_summary`)."""
+    if r["status"] == "n/a":
+        return f"regular (weighted Delaunay): n/a ({r['reason']})"
+    verdict = {"regular": "yes", "not regular": "no (proved)",
+               "undecided": "undecided"}[r["status"]]
+    n = r["negative_interior_weights"]
+    lines = [f"regular (weighted Delaunay): {verdict}; margin {r['margin']:+.3e} with the "
+             f"weights found ({r['n_weighted_vertices']} non-zero), {r['margin_plain']:+.3e} "
+             f"without; {r['seconds']:.2f} s",
+             f"negative interior weights: dual {n['dual']}, weighted dual {n['weighted_dual']}, "
+             f"primal {n['primal']}"]
+    if r["status"] == "not regular":
+        lines.append(f"certificate: {r['certificate_faces']} faces that no weights make all "
+                     "locally regular")
+    elif r["status"] == "undecided":
+        lines.append(f"undecided: {r['notes'][0] if r['notes'] else 'budget exhausted'} "
+                     "(raise --regular-time)")
+    return "\n".join(lines)
+
+
+# ---- tetlap improve --------------------------------------------------------------------
+
+_IMPROVE_ROWS = [
+    ("negative interior dual weights", "negative_interior", "{:d}"),
+    ("min interior dual weight", "min_interior_weight", "{:.3e}"),
+    ("non-Delaunay interior faces", "non_delaunay_faces", "{:d}"),
+    ("min dihedral angle (deg)", "min_dihedral_deg", "{:.2f}"),
+    ("min tet volume", "min_volume", "{:.3e}"),
+]
+
+
+def improve_table(result) -> str:
+    """The before/after numbers of a :class:`tetlap.improve.Improvement` as a small table."""
+    width = max(len(r[0]) for r in _IMPROVE_ROWS)
+    lines = [f"{'':<{width}}  {'before':>12}  {'after':>12}"]
+    for label, key, fmt in _IMPROVE_ROWS:
+        lines.append(f"{label:<{width}}  {fmt.format(result.before[key]):>12}  "
+                     f"{fmt.format(result.after[key]):>12}")
+    lines.append(f"{result.moved} vertices free to move, {result.iterations} iterations, "
+                 f"{result.evaluations} evaluations, {result.seconds:.2f} s "
+                 f"(objective {result.objective[0]:.4g} -> {result.objective[1]:.4g}); "
+                 f"{result.message}")
+    return "\n".join(lines)
+
+
+# ---- tetlap bench ----------------------------------------------------------------------
+
+
+def bench_table(records) -> str:
+    """The records of :func:`tetlap.benchmark.run` as an aligned table; the last column
+    (igl.cotmatrix's time over the case's) only when libigl was timed."""
+    width = max([len(r["mesh"]) for r in records] + [4])
+    igl = any(r["igl_cotmatrix_over_this"] is not None for r in records)
+    head = (f"{'mesh':<{width}} {'tets':>9} {'case':<32} {'median':>10} {'Mtets/s':>8} "
+            f"{'x floor':>8}")
+    lines = [head + (f" {'igl.cot / this':>14}" if igl else "")]
+    for r in records:
+        line = (f"{r['mesh']:<{width}} {r['n_tets']:>9} {r['case']:<32} "
+                f"{1e3 * r['median_s']:>8.2f}ms {r['mtets_per_s']:>8.2f} {r['vs_floor']:>8.2f}")
+        if igl:
+            ratio = r["igl_cotmatrix_over_this"]
+            line += f" {ratio:>14.2f}" if ratio is not None else f" {'n/a':>14}"
+        lines.append(line)
+    return "\n".join(lines)
+
+
+# ---- tetlap experiment -----------------------------------------------------------------
+
+
+def experiment_summary(folder) -> str:
+    """An experiment's ``summary.txt`` and the list of the files it wrote."""
+    summary = (folder / "summary.txt").read_text().rstrip("\n")
+    return f"{summary}\nfiles: {', '.join(sorted(p.name for p in folder.iterdir()))} in {folder}"

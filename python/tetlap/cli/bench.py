@@ -1,0 +1,52 @@
+"""``tetlap bench``: median timings of tetlap and the baselines installed, side by side
+(:mod:`tetlap.benchmark`)."""
+
+from __future__ import annotations
+
+from .. import _options
+from . import _output
+
+NAME = "bench"
+HELP = "timings against the floor and the baselines"
+DESCRIPTION = ("Median timings of tetlap and the baselines installed, side by side, on "
+               "several kinds of mesh.")
+
+
+def arguments(p) -> None:
+    from ..benchmark import KINDS, SIZES
+
+    p.add_argument("--kinds", nargs="+", choices=KINDS,
+                   help="mesh kinds (default: all four; --quick: kuhn delaunay)")
+    p.add_argument("--sizes", nargs="+", choices=list(SIZES),
+                   help="sizes in tets (default: 100k 1M; --quick: 10k 100k)")
+    p.add_argument("--mesh", nargs="+", metavar="FILE", help="also time these mesh files")
+    p.add_argument("--threads", type=int, default=None,
+                   help="worker threads (default: all cores)")
+    p.add_argument("--repeat", type=int, default=None,
+                   help="repetitions, the median is reported (default: 5; --quick: 3)")
+    p.add_argument("--operators", nargs="+", metavar="WORD",
+                   help="only cases whose name contains a word, e.g. primal dual Mesh check "
+                        "info numpy voronoi scikit (the floor always runs, and igl.cotmatrix "
+                        "when libigl is installed: the last column is relative to it)")
+    p.add_argument("--quick", action="store_true", help="small sizes, fewer repetitions")
+    p.add_argument("--json", action="store_true", help="print JSON records (default: a table)")
+
+
+def check(args) -> None:
+    _options.threads(args.threads, "--threads")
+    if args.repeat is not None:
+        _options.count(args.repeat, "--repeat")
+
+
+def run(args) -> int:
+    from .. import benchmark
+
+    sizes = args.sizes or (["10k", "100k"] if args.quick else ["100k", "1M"])
+    kinds = args.kinds or (["kuhn", "delaunay"] if args.quick else list(benchmark.KINDS))
+    if args.mesh and not args.kinds:
+        kinds = []
+    records = benchmark.run(kinds, sizes, args.mesh or (), threads=args.threads,
+                            repeat=args.repeat or (3 if args.quick else 5), only=args.operators,
+                            progress=not args.json)
+    print(_output.json_document(records, indent=1) if args.json else _output.bench_table(records))
+    return 0

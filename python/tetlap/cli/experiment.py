@@ -1,0 +1,39 @@
+"""``tetlap experiment NAME``: one of the paper's experiments (:mod:`tetlap.experiments`)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+from .. import _options, experiments
+from . import _output
+
+NAME = "experiment"
+HELP = "reproduce the paper's experiments"
+DESCRIPTION = "One of the paper's Sec. 8 and 9 experiments: CSV, PNG, summary."
+
+
+def _folder(text: str) -> str:
+    if not os.path.isdir(text):
+        raise argparse.ArgumentTypeError(f"no such folder: {text}")
+    return text
+
+
+def arguments(p) -> None:
+    p.add_argument("name", choices=experiments.NAMES)
+    p.add_argument("--quick", action="store_true", help="small sizes (< 2 minutes)")
+    p.add_argument("--out", help="output folder (default: tetlap-experiments/NAME)")
+    p.add_argument("--seed", type=int, default=0, help="random seed, >= 0 (default: 0)")
+    p.add_argument("--meshes", type=_folder,
+                   help=f"{', '.join(experiments.CORPUS_NAMES)}: a folder of mesh files")
+
+
+def check(args) -> None:
+    _options.count(args.seed, "--seed", least=0)
+
+
+def run(args) -> int:
+    folder = experiments.run(args.name, quick=args.quick, out=args.out, seed=args.seed,
+                             meshes=args.meshes)
+    print(_output.experiment_summary(folder))
+    return 0

@@ -1,0 +1,48 @@
+"""``tetlap improve MESH -o OUT``: interior vertex moves that remove negative dual weights
+(:func:`tetlap.improve.improve`)."""
+
+from __future__ import annotations
+
+from .. import _options
+from . import _output
+
+NAME = "improve"
+HELP = "move interior vertices to remove negative dual weights"
+DESCRIPTION = ("Optimise interior vertex positions (L-BFGS-B) so that fewer interior dual "
+               "weights are negative; the boundary stays fixed. See tetlap.improve.")
+
+
+def arguments(p) -> None:
+    p.add_argument("mesh", help="mesh file (any format meshio reads)")
+    p.add_argument("-o", "--output", required=True,
+                   help="the improved mesh (format from the extension, e.g. .vtu)")
+    p.add_argument("--margin", type=float, default=0.02,
+                   help="penalise dual weights below MARGIN times the mean edge length, a "
+                        "number >= 0 (default: 0.02)")
+    p.add_argument("--iterations", type=int, default=200,
+                   help="L-BFGS-B iterations, >= 1 (default: 200)")
+    p.add_argument("--step", type=float, default=0.3,
+                   help="largest move per coordinate, in shortest incident edges, a positive "
+                        "number (default: 0.3)")
+    p.add_argument("--threads", type=int, default=None,
+                   help="worker threads (default: all cores)")
+
+
+def check(args) -> None:
+    _options.non_negative(args.margin, "--margin")
+    _options.count(args.iterations, "--iterations")
+    _options.positive(args.step, "--step")
+    _options.threads(args.threads, "--threads")
+
+
+def run(args) -> int:
+    from .. import io
+    from ..improve import improve
+
+    V, T = io.read(args.mesh)
+    result = improve(V, T, margin=args.margin, max_iterations=args.iterations, step=args.step,
+                     threads=args.threads)
+    io.write(args.output, result.V, T)
+    print(f"mesh: {args.mesh} ({len(V)} vertices, {len(T)} tets) -> {args.output}")
+    print(_output.improve_table(result))
+    return 0

@@ -1,0 +1,62 @@
+"""``tetlap info [MESH]``: the mesh and the Table 1 properties of both Laplacians, with
+numbers (:func:`tetlap.info.report`), as text or JSON, and optionally histograms."""
+
+from __future__ import annotations
+
+import sys
+
+from .. import _options
+from . import _mesh, _output
+
+NAME = "info"
+HELP = "the mesh and the Table 1 properties of both Laplacians"
+DESCRIPTION = ("Counts, mesh quality and the paper's Table 1 for the primal and the dual "
+               "Laplacian, with numbers.")
+
+
+def arguments(p) -> None:
+    from ..info import REGULAR_TIME_LIMIT
+
+    p.add_argument("mesh", nargs="?",
+                   help=f"mesh file (any format meshio reads); without it, {_mesh.BUILT_IN}")
+    p.add_argument("--json", action="store_true", help="print one JSON object (default: tables)")
+    p.add_argument("--no-nsd", action="store_true",
+                   help="skip the semidefiniteness certificates (default: computed)")
+    p.add_argument("--no-regular", action="store_true",
+                   help="skip the search for regular (weighted Delaunay) weights")
+    p.add_argument("--regular-time", type=float, default=None, metavar="S",
+                   help="seconds for that search, a positive number; past it the verdict is "
+                        "'undecided' (default: half the time of the other checks, 1 to "
+                        f"{REGULAR_TIME_LIMIT:g} s)")
+    p.add_argument("--plot", metavar="DIR",
+                   help="also write histograms of dihedral angles, weights and masses "
+                        "(PNG, named after the mesh) into DIR (created if needed; needs "
+                        "matplotlib)")
+
+
+def check(args) -> None:
+    """The flags, and matplotlib for ``--plot``, before the mesh is read."""
+    from .. import info
+
+    if args.regular_time is not None:
+        _options.positive(args.regular_time, "--regular-time")
+    if args.plot:
+        info.pyplot()
+
+
+def run(args) -> int:
+    from .. import info
+
+    V, T, source = _mesh.load(args.mesh)
+    result = info.report(V, T, nsd=not args.no_nsd, progress=None if not args.json else False,
+                         regular=not args.no_regular, regular_time_limit=args.regular_time)
+    if args.json:
+        print(_output.json_document({"schema_version": result["schema_version"],
+                                     "source": source, **result}))
+    else:
+        print(_output.info_report(result, source))
+    if args.plot:
+        files = info.plot(V, T, args.plot, name=_mesh.name(args.mesh))
+        print(f"plots: {', '.join(str(p) for p in files)}",
+              file=sys.stderr if args.json else sys.stdout)
+    return 0

@@ -1,0 +1,221 @@
+"""``tetlap info`` (tetlap.cli.info): the text and JSON reports as printed, the regular
+section, ``--plot``, and meshes near the float64 range. The numbers are tested in
+test_info.py."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+import tetlap
+import tetlap.io
+from tetlap import cli
+from tetlap.cli import _mesh
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "tetlap", *args], capture_output=True,
+                          text=True, timeout=600)
+
+
+def strict_json(text):
+    """Parse JSON as the standard says: NaN and Infinity are not JSON."""
+    return json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} is not valid JSON"))
+
+
+@pytest.fixture
+def cube_file(tmp_path):
+    pytest.importorskip("meshio")
+    V, T = tetlap.meshes.cube(3, jitter=0.1)
+    path = tmp_path / "cube.vtu"
+    tetlap.io.write(path, V, T)
+    return path, V, T
+
+
+@pytest.fixture
+def given_mesh(monkeypatch):
+    """Make ``tetlap info`` (without a file) report on a mesh of the test's choosing."""
+    def use(V, T, source="test mesh"):
+        monkeypatch.setattr(_mesh, "load", lambda path: (V, T, source))
+    return use
+
+
+def test_info_json_on_the_built_in_mesh():
+    out = run("info", "--json")
+    assert out.returncode == 0, out.stderr
+    result = strict_json(out.stdout)
+    assert list(result)[:2] == ["schema_version", "source"]
+    assert result["schema_version"] == tetlap.info.SCHEMA_VERSION == 2
+    assert result["source"] == _mesh.BUILT_IN
+    for key in ("n_vertices", "n_tets", "n_boundary_vertices", "non_delaunay_face_fraction",
+                "min_dihedral_deg"):
+        assert key in result["mesh"]
+    for kind in ("primal", "dual"):
+        for key in ("symmetric", "max_row_sum", "linear_precision_residual", "nsd",
+                    "min_weight", "negative_fraction", "negative_fraction_interior", "finite",
+                    "mass_total", "mesh_volume"):
+            assert key in result[kind]
+    V, T = tetlap.meshes.ball(2000, seed=0)
+    assert result["mesh"]["n_tets"] == len(T)
+    assert result["mesh"]["non_delaunay_face_fraction"] == 0.0  # a Delaunay mesh
+    assert result["primal"]["nsd"] is True
+    assert result["dual"]["negative_fraction_interior"] == 0.0
+    edges, w = tetlap.edge_weights(V, T, "primal")
+    assert result["primal"]["min_weight"] == pytest.approx(w.min(), rel=1e-12)
+    for kind in ("primal", "dual"):
+        assert result[kind]["mass_total"] == pytest.approx(result[kind]["mesh_volume"])
+
+
+def test_info_table_is_human_readable():
+    out = run("info", "--no-nsd")
+    assert out.returncode == 0, out.stderr
+    assert "negative semidefinite" in out.stdout and "primal" in out.stdout
+    assert "semidefinite (dual): skipped (nsd=False)" in out.stdout
+
+
+def test_info_regular_section_and_no_regular(given_mesh, capsys):
+    given_mesh(*tetlap.meshes.weighted_ball(400, 1.0, seed=0))      # regular, not Delaunay
+
+    def info(*flags):
+        assert cli.main(["info", "--no-nsd", *flags]) == 0
+        return capsys.readouterr().out
+
+    out = info()
+    assert "regular (weighted Delaunay): yes" in out
+    assert "negative interior weights: dual" in out and "weighted dual 0," in out
+    assert "regular (weighted Delaunay)" not in info("--no-regular")
+    out = info("--regular-time", "1e-9")
+    assert "regular (weighted Delaunay): undecided" in out and "--regular-time" in out
+    result = json.loads(info("--json"))
+    assert result["regular"]["status"] == "regular"
+    assert result["regular"]["negative_interior_weights"]["weighted_dual"] == 0
+
+
+def test_info_table_of_a_file(cube_file, capsys):
+    path, V, T = cube_file
+    assert cli.main(["info", str(path)]) == 0
+    out, err = capsys.readouterr()
+    lines = out.splitlines()
+    assert lines[0] == f"mesh: {path}"
+    assert lines[1].startswith(f"{len(V)} vertices (") and f", {len(T)} tets (" in lines[1]
+    header = next(line for line in lines if line.startswith("property"))
+    assert header.split() == ["property", "primal", "dual"]
+    nsd_row = next(line for line in lines if line.startswith("negative semidefinite"))
+    assert nsd_row.split()[-2:] == ["yes", "yes"]  # a Kuhn-type grid: both NSD
+    assert "semidefinite (primal): dense eigenvalues" in out
+    assert "mesh diagnostics" not in out  # progress (if any) goes to stderr
+
+
+def test_info_json_of_a_file_has_only_json_on_stdout(cube_file, capsys):
+    path, V, T = cube_file
+    assert cli.main(["info", str(path), "--json", "--no-nsd"]) == 0
+    out, err = capsys.readouterr()
+    result = strict_json(out)
+    assert result["source"] == str(path) and result["mesh"]["n_tets"] == len(T)
+    assert result["primal"]["nsd"] is None
+
+
+def test_the_semidefiniteness_reason_is_printed_whole(given_mesh, capsys):
+    """A jittered grid of 3,375 vertices: the element certificate groups failing tets;
+    the reason ends its sentence, in the JSON and in the text."""
+    given_mesh(*tetlap.meshes.cube(14, jitter=0.2, seed=0))
+    assert cli.main(["info", "--json", "--no-regular"]) == 0
+    method = json.loads(capsys.readouterr().out)["dual"]["nsd_method"]
+    assert "groups of <=" in method and method.endswith("whose sums are positive semidefinite")
+    assert cli.main(["info", "--no-regular"]) == 0
+    assert f"semidefinite (dual): {method}\n" in capsys.readouterr().out
+
+
+# ---- near the float64 range ------------------------------------------------------------
+
+
+@pytest.mark.parametrize("scale", [1e200, 1e-200, 1e104, 1e-110])
+def test_a_mesh_beyond_the_float_range_is_refused_naming_the_limit(scale, given_mesh, capsys):
+    """Issue 24.4: cube(2) * 1e200 gave "mesh_volume": Infinity (not JSON), "48
+    degenerate" tets and NumPy warnings; now one line naming the limit, as assemble."""
+    V, T = tetlap.meshes.cube(2)
+    given_mesh(V * scale, T)
+    for flags in (["--json"], []):
+        assert cli.main(["info", *flags]) == 2
+        out, err = capsys.readouterr()
+        assert out == "" and err.count("\n") == 1
+        assert err.startswith("tetlap: error: tet 0 has volume ") and "float64 range" in err
+        assert "1e-100 to 1e100" in err
+
+
+def test_a_mesh_beyond_the_float_range_as_users_type_it(tmp_path):
+    pytest.importorskip("meshio")
+    V, T = tetlap.meshes.cube(2)
+    path = tmp_path / "big.vtu"
+    tetlap.io.write(path, V * 1e200, T)
+    for command in (["info", "--json"], ["improve", "-o", str(tmp_path / "out.vtu")],
+                    ["assemble", "-o", str(tmp_path / "ops")]):
+        out = run(command[0], str(path), *command[1:])
+        assert out.returncode == 2 and out.stdout == ""
+        assert out.stderr.startswith("tetlap: error: ") and out.stderr.count("\n") == 1, out.stderr
+        assert "float64 range" in out.stderr
+    assert not (tmp_path / "out.vtu").exists()
+
+
+@pytest.mark.parametrize("scale", [1e100, 1e-100, 2.0**200, 2.0**-200])
+def test_meshes_near_the_float_range_give_valid_json_and_no_warnings(scale, given_mesh, capsys):
+    """In range but far from everyday units: the report is complete, strictly valid JSON,
+    the regular section decided as on the unscaled mesh, and no warning (any warning
+    would be an error here)."""
+    V, T = tetlap.meshes.weighted_ball(300, 1.0, seed=0)
+    given_mesh(V * scale, T)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert cli.main(["info", "--json", "--no-nsd", "--regular-time", "60"]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    result = strict_json(out)
+    plain = tetlap.info.report(V, T, nsd=False, progress=False, regular_time_limit=60)
+    assert "non_finite" not in result
+    assert result["mesh"]["n_degenerate_tets"] == 0
+    assert result["mesh"]["mesh_volume"] == pytest.approx(plain["mesh"]["mesh_volume"] * scale**3)
+    assert result["dual"]["n_negative_interior"] == plain["dual"]["n_negative_interior"]
+    assert result["regular"]["status"] == plain["regular"]["status"] == "regular"
+    assert result["regular"]["mass_min"]["dual"] == pytest.approx(
+        plain["regular"]["mass_min"]["dual"] * scale**3, rel=1e-9)
+
+
+# ---- --plot ----------------------------------------------------------------------------
+
+
+def test_plot_without_matplotlib_fails_before_any_analysis(monkeypatch, tmp_path, capsys):
+    def analysis(*args, **kwargs):
+        raise AssertionError("the analysis ran before matplotlib was checked")
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setattr(_mesh, "load", analysis)
+    monkeypatch.setattr(tetlap.info, "report", analysis)
+    assert cli.main(["info", "--plot", str(tmp_path / "plots")]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err == ("tetlap: error: info plots need matplotlib: "
+                                 "pip install 'tetlap[experiments]'\n")
+
+
+def test_plots_are_named_after_the_mesh(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("matplotlib")
+    pytest.importorskip("meshio")
+    folder = tmp_path / "new" / "plots"
+    for name in ("first", "second"):
+        path = tmp_path / f"{name}.vtu"
+        tetlap.io.write(path, *tetlap.meshes.cube(2, jitter=0.1))
+        assert cli.main(["info", str(path), "--no-nsd", "--no-regular", "--plot", str(folder)]) == 0
+        assert f"plots: {folder / name}_dihedral_angles.png" in capsys.readouterr().out
+    assert sorted(p.name for p in folder.iterdir()) == [
+        f"{name}_{what}.png" for name in ("first", "second")
+        for what in ("dihedral_angles", "masses", "weights")]
+    V, T = tetlap.meshes.cube(2, jitter=0.1)
+    monkeypatch.setattr(_mesh, "load", lambda path: (V, T, _mesh.BUILT_IN))
+    assert cli.main(["info", "--no-nsd", "--no-regular", "--json", "--plot", str(folder)]) == 0
+    out, err = capsys.readouterr()
+    json.loads(out)                                   # the file list goes to stderr
+    assert "ball_weights.png" in err and (folder / "ball_weights.png").is_file()
