@@ -1,5 +1,5 @@
 """tetlap.assembly: the one-shot functions (laplacian, mass, operators, triplets,
-edge_weights, tet_contributions): every route gives the same operator, the output layout
+edge_weights, element_contributions): every route gives the same operator, the output layout
 is the documented one, the result does not depend on the thread count, and the options
 do what they say. (The paper's properties of the operators: test_invariants.py; inputs
 and their errors: test_inputs.py.)"""
@@ -58,7 +58,7 @@ def test_all_routes_agree(mesh):
     assert abs(sp.coo_array((v, (r, c)), shape=shape).tocsr() - L).max() <= 1e-14 * scale_of(L)
     edges, w = tetlap.edge_weights(V, T, "dual")
     np.testing.assert_array_equal(w, L[edges[:, 0], edges[:, 1]])
-    W = tetlap.tet_contributions(V, T, "dual")
+    W = tetlap.element_contributions(V, T, "dual")
     local = LOCAL_EDGES
     rows = np.concatenate([T[:, a] for a, b in local])
     cols = np.concatenate([T[:, b] for a, b in local])
@@ -93,7 +93,7 @@ def test_triplets_are_each_tets_local_laplacian_in_the_documented_order():
     rows, cols, vals = (x.reshape(len(T), 4, 4) for x in trip[:3])
     np.testing.assert_array_equal(rows, np.repeat(T[:, :, None], 4, axis=2))
     np.testing.assert_array_equal(cols, np.repeat(T[:, None, :], 4, axis=1))
-    W = tetlap.tet_contributions(V, T, "dual")
+    W = tetlap.element_contributions(V, T, "dual")
     for e, (a, b) in enumerate(LOCAL_EDGES):
         np.testing.assert_array_equal(vals[:, a, b], W[:, e])
         np.testing.assert_array_equal(vals[:, b, a], W[:, e])
@@ -112,16 +112,23 @@ def test_edge_weights_are_the_unique_sorted_edges():
     np.testing.assert_array_equal(edges, np.unique(pairs, axis=0))
 
 
-def test_tet_contributions_of_the_corner_tet():
+def test_element_contributions_of_the_corner_tet():
     """By hand: the primal weight of edge ij is |e_kl| cot(theta_kl) / 6 for the opposite
     edge kl and its dihedral angle: 1/6 on the three edges at the right-angled corner
     (|e_kl| = sqrt 2, cot theta_kl = 1 / sqrt 2), 0 on the others (theta_kl = 90 deg)."""
-    W = tetlap.tet_contributions(CORNER_V, [[0, 1, 2, 3]], "primal")
+    W = tetlap.element_contributions(CORNER_V, [[0, 1, 2, 3]], "primal")
     assert W.shape == (1, 6)
     np.testing.assert_allclose(W[0], [1 / 6] * 3 + [0] * 3, atol=1e-16)
     # the corners in another order: the weights follow their edges
-    W2 = tetlap.tet_contributions(CORNER_V, [[1, 2, 3, 0]], "primal")
+    W2 = tetlap.element_contributions(CORNER_V, [[1, 2, 3, 0]], "primal")
     np.testing.assert_allclose(W2[0], [0, 0, 1 / 6, 0, 1 / 6, 1 / 6], atol=1e-16)
+
+
+def test_tet_contributions_is_the_old_name_of_element_contributions():
+    from tetlap import assembly
+
+    assert tetlap.tet_contributions is tetlap.element_contributions
+    assert assembly.tet_contributions is assembly.element_contributions
 
 
 # ---- output layout --------------------------------------------------------------------
@@ -170,7 +177,7 @@ def test_a_mesh_object_stands_for_v_and_t():
     obj = meshio.Mesh(V, [("tetra", T)])
     assert same_csr(tetlap.laplacian(obj, kind="dual"), tetlap.laplacian(V, T, "dual"))
     assert same_csr(tetlap.mass(obj, kind="fem"), tetlap.mass(V, T, "fem"))
-    np.testing.assert_array_equal(tetlap.tet_contributions(obj), tetlap.tet_contributions(V, T))
+    np.testing.assert_array_equal(tetlap.element_contributions(obj), tetlap.element_contributions(V, T))
     np.testing.assert_array_equal(tetlap.edge_weights(obj)[1], tetlap.edge_weights(V, T)[1])
     np.testing.assert_array_equal(tetlap.triplets(obj).vals, tetlap.triplets(V, T).vals)
 

@@ -128,7 +128,7 @@ def test_random_cotangents_match_differences(seed, kind, mass, form):
     else:
         dW = rng.normal(size=(m, 6))
         dL = dW
-        phiL = lambda X: float((tetlap.tet_contributions(X, T, kind) * dW).sum())  # noqa: E731
+        phiL = lambda X: float((tetlap.element_contributions(X, T, kind) * dW).sum())  # noqa: E731
     g = tetlap.vjp(V, T, kind, mass, dL=dL, dM=sp.coo_array(dMd))
 
     def phi(X):

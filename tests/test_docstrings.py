@@ -25,7 +25,7 @@ NOT_IMPORTED = {"tetlap.__main__"}
 OPTIONAL = {"tetlap.torch": "torch", "tetlap.jax": "jax"}
 #: Modules known to have examples: discovery must find at least these.
 KNOWN = {"tetlap", "tetlap.assembly", "tetlap.diagnostics", "tetlap.errors", "tetlap.info",
-         "tetlap.io", "tetlap.mesh", "tetlap.meshes", "tetlap.properties", "tetlap.solve"}
+         "tetlap.io", "tetlap.mesh", "tetlap.meshes", "tetlap.analysis", "tetlap.solve"}
 
 
 def module_names() -> list[str]:

@@ -16,7 +16,7 @@ FUNCTIONS = [
     lambda V, T, **kw: tetlap.operators(V, T, "dual", "barycentric", **kw)[0],
     lambda V, T, **kw: tetlap.triplets(V, T, **kw).vals,
     lambda V, T, **kw: tetlap.edge_weights(V, T, **kw)[1],
-    lambda V, T, **kw: tetlap.tet_contributions(V, T, **kw),
+    lambda V, T, **kw: tetlap.element_contributions(V, T, **kw),
 ]
 
 

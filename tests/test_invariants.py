@@ -127,7 +127,7 @@ def test_vertex_order_and_orientation_do_not_matter(mesh, rng):
         a, b = tetlap.mass(V, T, kind).diagonal(), tetlap.mass(V, T2, kind).diagonal()
         np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-16)
     # per-tet weights follow the permutation of the corners
-    W, W2 = tetlap.tet_contributions(V, T, "dual"), tetlap.tet_contributions(V, T2, "dual")
+    W, W2 = tetlap.element_contributions(V, T, "dual"), tetlap.element_contributions(V, T2, "dual")
     edges = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
     for t in range(0, len(T), 17):
         by_edge = {frozenset((T[t, a], T[t, b])): W[t, e] for e, (a, b) in enumerate(edges)}

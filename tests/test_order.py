@@ -49,7 +49,7 @@ def test_shuffled_input_gives_the_permuted_operators(mesh, seed):
             scale = np.abs(B.data).max()
             assert np.abs(A.data - B.data).max() <= 4e-16 * scale * 16
     # per-element values follow the elements exactly (each is computed from its own corners)
-    W, W2 = tetlap.tet_contributions(V, T, "dual"), tetlap.tet_contributions(V2, T2, "dual")
+    W, W2 = tetlap.element_contributions(V, T, "dual"), tetlap.element_contributions(V2, T2, "dual")
     np.testing.assert_array_equal(W2, W[order])
 
 

@@ -100,8 +100,8 @@ def boundary_tet_mask(T):
 def test_barycentric_boundary_guarantees_and_cost():
     V, T = tetlap.meshes.ball(1500, seed=8)
     fixed = boundary_tet_mask(T)
-    W = tetlap.tet_contributions(V, T, "dual", boundary="barycentric")
-    W0 = tetlap.tet_contributions(V, T, "dual")
+    W = tetlap.element_contributions(V, T, "dual", boundary="barycentric")
+    W0 = tetlap.element_contributions(V, T, "dual")
     assert (W0[fixed] < 0).any()  # the plain construction has negative boundary weights
     assert (W[fixed] >= 0).all()  # guarantee: non-negative contributions in fixed tets
     np.testing.assert_array_equal(W[~fixed], W0[~fixed])  # other tets untouched

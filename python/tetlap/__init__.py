@@ -18,7 +18,7 @@ Sign convention (paper Eq. 1): ``L[i, j] = w_ij`` on edges, ``L[i, i] = -sum_j w
 from . import diagnostics, info, io, meshes, solve
 from ._core import MAX_THREADS
 from .mesh import Mesh, UpdateInfo
-from .properties import Report, check
+from .analysis import Report, check
 from .errors import (
     CompatibilityError,
     DegenerateElementError,
@@ -39,6 +39,7 @@ from .regular import RegularWeights, regular_weights
 from .assembly import (
     Triplets,
     edge_weights,
+    element_contributions,
     laplacian,
     mass,
     operators,
@@ -54,6 +55,7 @@ __all__ = [
     "operators",
     "triplets",
     "edge_weights",
+    "element_contributions",
     "tet_contributions",
     "Triplets",
     "vjp",

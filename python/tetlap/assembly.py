@@ -21,6 +21,7 @@ __all__ = [
     "operators",
     "triplets",
     "edge_weights",
+    "element_contributions",
     "tet_contributions",
     "Triplets",
 ]
@@ -227,9 +228,11 @@ def edge_weights(V, T=None, kind="primal", *, boundary="circumcentric", weights=
 
 
 @shared_docs
-def tet_contributions(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
-                      degenerate="raise", threads=None) -> np.ndarray:
-    """Per-element edge weights (each element's contribution to ``L``).
+def element_contributions(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
+                          degenerate="raise", threads=None) -> np.ndarray:
+    """Per-element edge weights (each element's contribution to ``L``), for tets and
+    triangles. ``tet_contributions`` is this function under its name until 0.1, kept for
+    one release.
 
     Parameters
     ----------
@@ -250,9 +253,14 @@ def tet_contributions(V, T=None, kind="primal", *, boundary="circumcentric", wei
     --------
     >>> import tetlap
     >>> V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
-    >>> (tetlap.tet_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12) + 0.0  # no -0.
+    >>> (tetlap.element_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12) + 0.0  # no -0.
     array([[1., 1., 1., 0., 0., 0.]])
     """
     V, T, w = _inputs(V, T, weights)
     return _core.assemble(V, T, ("contributions", kind), weights=w,
                           options=_options(boundary, degenerate, threads))
+
+
+#: The name of :func:`element_contributions` until 0.1 (it returns triangles' weights too),
+#: kept for one release.
+tet_contributions = element_contributions

@@ -145,8 +145,8 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
         * a pair ``(edges, dw)``, ``edges`` (E, 2) integers and ``dw`` (E,) reals: on the
           summed edge weights ``w_ij`` as :func:`tetlap.edge_weights` returns them (any
           subset of edges, in any order; repeated edges add up);
-        * an (m, 6) array: on each tet's own weights, as :func:`tetlap.tet_contributions`
-          returns them.
+        * an (m, 6) array: on each tet's own weights, as
+          :func:`tetlap.element_contributions` returns them.
     dM : optional
         The cotangent on ``M``: a SciPy sparse (n, n) matrix (on its entries; only the
         diagonal counts for the lumped kinds) or an (n,) array (on its diagonal).

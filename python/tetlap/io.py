@@ -292,7 +292,7 @@ def write(path, V, T, *, cell_data=None, point_data=None) -> None:
     --------
     >>> import tetlap, tetlap.io
     >>> V, T = tetlap.meshes.ball(1000)
-    >>> W = tetlap.tet_contributions(V, T, "dual")
+    >>> W = tetlap.element_contributions(V, T, "dual")
     >>> tetlap.io.write("ball.vtu", V, T, cell_data={"min_weight": W.min(axis=1)})  # doctest: +SKIP
     """
     mesh = to_meshio(V, T, point_data=point_data, cell_data=cell_data)

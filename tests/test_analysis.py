@@ -1,4 +1,5 @@
-"""tetlap.properties (tetlap.check): every line of the report can fail, and says why."""
+"""tetlap.analysis (tetlap.check): every line of the report can fail, and says why; the
+semidefiniteness answer against dense eigenvalues."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tetlap
-import tetlap.properties as properties
+import tetlap.analysis as analysis
 from tetlap import _core
 
 
@@ -112,7 +113,7 @@ def test_certificates_never_contradict_dense_eigenvalues(monkeypatch, case):
     L = tetlap.laplacian(V, T, kind)
     dense = tetlap.check(L, V, T)
     assert dense.nsd_method == "dense eigenvalues"
-    monkeypatch.setattr(properties, "DENSE_NSD_MAX", 10)
+    monkeypatch.setattr(analysis, "DENSE_NSD_MAX", 10)
     for hint in (None, kind):
         r = tetlap.check(L, V, T, kind=hint)
         assert r.nsd in (dense.nsd, None), (case, hint, r.nsd_method, dense.nsd_min_eigenvalue)
@@ -123,7 +124,7 @@ def test_certificates_never_contradict_dense_eigenvalues(monkeypatch, case):
 
 
 def test_the_primal_is_semidefinite_by_construction_only_when_it_is_the_primal(monkeypatch):
-    monkeypatch.setattr(properties, "DENSE_NSD_MAX", 10)
+    monkeypatch.setattr(analysis, "DENSE_NSD_MAX", 10)
     V, T = tetlap.meshes.ball(700, seed=2)
     P = tetlap.laplacian(V, T, "primal")
     assert "by construction" in tetlap.check(P, V, T).nsd_method
@@ -146,6 +147,15 @@ def test_immersed_mesh_skips_linear_precision(cube):
     r = tetlap.check(tetlap.laplacian(V4, T, "primal"), V4, T)
     assert r.linear_precision_residual is None and r.nsd
     assert any("immersed" in n for n in r.notes)
+
+
+def test_tetlap_properties_is_an_alias_of_tetlap_analysis():
+    import tetlap.properties as old
+
+    for name in analysis.__all__:
+        assert getattr(old, name) is getattr(analysis, name), name
+    assert old.__all__ == analysis.__all__
+    assert tetlap.check is analysis.check
 
 
 def test_shape_mismatch(cube):
@@ -184,13 +194,13 @@ def test_the_element_certificate_never_certifies_an_indefinite_sum(seed, mean, s
 
 def test_the_element_certificate_answers_when_neighbours_cover_the_negative_weights():
     V, T = tetlap.meshes.cube(8, jitter=0.24, seed=5)
-    W = tetlap.tet_contributions(V, T, "dual")
+    W = tetlap.element_contributions(V, T, "dual")
     assert (W < 0).any()
     verdict, _, details = _core.element_certificate(T, len(V), W, 1e-9 * np.abs(W).max())
     assert verdict is True and details["groups"] > 0
     assert np.linalg.eigvalsh(_dense_minus_laplacian(len(V), T, W))[0] >= -1e-9 * np.abs(W).max()
     # the primal needs no group: every K_t is a Gram matrix
-    P = tetlap.tet_contributions(V, T, "primal")
+    P = tetlap.element_contributions(V, T, "primal")
     assert _core.element_certificate(T, len(V), P, 1e-9 * np.abs(P).max())[2]["groups"] == 0
 
 
@@ -204,9 +214,9 @@ def test_the_element_certificate_refuses_weights_of_the_wrong_shape():
 @pytest.mark.parametrize("kind", ["primal", "dual"])
 def test_the_element_certificate_never_contradicts_dense_eigenvalues_on_the_corpus(real_mesh, kind):
     name, V, T = real_mesh
-    W = tetlap.tet_contributions(V, T, kind, degenerate="skip")
+    W = tetlap.element_contributions(V, T, kind, degenerate="skip")
     L = tetlap.laplacian(V, T, kind, degenerate="skip")
-    tol = properties.NSD_RTOL * abs(L).max()
+    tol = analysis.NSD_RTOL * abs(L).max()
     verdict, _, _ = _core.element_certificate(T, len(V), W, tol)
     if kind == "primal":
         assert verdict is True, name  # a sum of Gram matrices
