@@ -31,7 +31,9 @@ __all__ = ["check", "Report", "negative_weights", "NEGATIVE_TOL", "TOL", "NSD_RT
 NEGATIVE_TOL = 1e-12
 #: Relative tolerance of the symmetry, row-sum and linear-precision checks.
 TOL = 1e-10
-#: ``L`` counts as negative semidefinite when ``lambda_min(-L) >= -NSD_RTOL * max|L|``.
+#: ``L`` counts as negative semidefinite when ``-L + NSD_RTOL * diag(|L_ii|)`` is positive
+#: semidefinite: each vertex's tolerance is relative to its own row, so that no part of the
+#: mesh (a component far larger, a region far finer) sets the tolerance of another.
 NSD_RTOL = 1e-9
 #: Largest n for which the NSD check computes all eigenvalues (exact, dense).
 DENSE_NSD_MAX = 2500
@@ -154,22 +156,27 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     Linear precision (Eq. 26) is ``max_i |(L V)_i|`` over interior vertices relative to
     ``max|L| * diameter``; it applies to meshes in R^3 (an immersed mesh is curved).
 
-    ``L`` counts as negative semidefinite when ``lambda_min(-L) >= -1e-9 max|L|``
-    (``NSD_RTOL``). The answer is, in this order: for ``n <= 2500``, the smallest
-    eigenvalue of ``-L`` (dense, exact). Then the **element certificate**, if ``L`` is the
+    ``L`` counts as negative semidefinite when ``-L + 1e-9 diag(|L_ii|)`` is positive
+    semidefinite (``NSD_RTOL``): the tolerance of each vertex is relative to its own row
+    (equivalently, the Jacobi-scaled ``D^-1/2 (-L) D^-1/2``, ``D = diag(|L_ii|)``, has no
+    eigenvalue below -1e-9). A mesh part of another scale (a far larger component, a far
+    finer region) therefore changes nothing about the answer for the rest: "yes" holds of
+    every part, and scaling any part leaves the answer as it is. The answer is, in this
+    order: for ``n <= 2500``, dense eigenvalues (of ``-L``, whose smallest is reported, and
+    of the scaled matrix, which decide). Then the **element certificate**, if ``L`` is the
     mesh's operator of ``kind`` (without ``kind``: the primal, then the dual) to 1e-12
     relative: ``-L`` is the sum of per-tet matrices ``K_t``; each is checked positive
     semidefinite (for the primal, ``Vol_t G_t G_t^T``: by construction), and tets that fail
     are grouped with face neighbours until each group's sum is (a sum of positive
-    semidefinite matrices is one); the shifts of the pieces and the gap to ``L`` add up to
-    at most the tolerance. Then the certificate of :func:`tetlap._core.negative_semidefinite`
-    on the edge weights: non-negative weights (a weighted graph Laplacian), or every
-    negative weight covered by the positive weights of its neighbourhood, or a witness
-    vector on a small neighbourhood with a negative Rayleigh quotient (indefinite, by
-    interlacing). Those steps cost ``O(size of the mesh)``. When none of them answers and
-    ``n <= 30000`` (``SPARSE_NSD_MAX``), the inertia of a sparse LDL^T of
-    ``-L + 1e-9 max|L| I`` decides (seconds at that size); otherwise ``nsd`` is None and
-    ``nsd_method`` says why.
+    semidefinite matrices is one); at every vertex the shifts of the pieces and the gap to
+    ``L`` add up to at most its tolerance. Then the certificate of
+    :func:`tetlap._core.negative_semidefinite` on the edge weights: non-negative weights (a
+    weighted graph Laplacian), or every negative weight covered by the positive weights of
+    its neighbourhood, or a witness vector ``x`` on a small neighbourhood with
+    ``x^T (-L) x < -1e-9 x^T D x`` (indefinite, by interlacing). Those steps cost ``O(size
+    of the mesh)``. When none of them answers and ``n <= 30000`` (``SPARSE_NSD_MAX``), the
+    inertia of a sparse LDL^T of ``-L + 1e-9 D`` decides (seconds at that size); otherwise
+    ``nsd`` is None and ``nsd_method`` says why.
 
     Examples
     --------
@@ -271,15 +278,15 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
 SPARSE_NSD_MAX = 30_000
 
 
-def _ldl_inertia(A: sp.csr_array, eps: float) -> int | None:
+def _ldl_inertia(A: sp.csr_array, shift: np.ndarray) -> int | None:
     """Negative pivots of a symmetric-mode LU (an LDL^T with diagonal pivoting and a
-    fill-reducing ordering) of ``A + eps I``: by Sylvester's law, the number of
-    eigenvalues of ``A`` below ``-eps``. None if the factorisation had to pivot off the
-    diagonal. Runs on a helper thread (SuperLU releases the GIL), so Ctrl-C is answered
-    at once; an interrupted factorisation finishes in the background and is dropped."""
+    fill-reducing ordering) of ``A + diag(shift)``: by Sylvester's law, the number of its
+    negative eigenvalues. None if the factorisation had to pivot off the diagonal. Runs on
+    a helper thread (SuperLU releases the GIL), so Ctrl-C is answered at once; an
+    interrupted factorisation finishes in the background and is dropped."""
     from scipy.sparse.linalg import splu
 
-    shifted = sp.csc_array(A + eps * sp.eye_array(A.shape[0]))
+    shifted = sp.csc_array(A + sp.diags_array(shift))
     lu = interruptible(splu, shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                        options={"SymmetricMode": True})
     if not np.array_equal(lu.perm_r, lu.perm_c):
@@ -287,23 +294,52 @@ def _ldl_inertia(A: sp.csr_array, eps: float) -> int | None:
     return int((lu.U.diagonal() < 0).sum())
 
 
-def _difference(A: sp.csr_array, B: sp.csr_array) -> float:
-    """The row-sum norm ``max_i sum_j |A_ij - B_ij|`` (a bound on the spectral norm)."""
-    return float(np.abs(A - B).sum(axis=1).max()) if A.nnz or B.nnz else 0.0
+def _row_gaps(A: sp.csr_array, B: sp.csr_array) -> np.ndarray:
+    """``sum_j |A_ij - B_ij|`` per row (n,): for symmetric ``A`` and ``B``,
+    ``|x^T (A - B) x| <= sum_i gap_i x_i^2`` (Gershgorin)."""
+    return np.asarray(abs(A - B).sum(axis=1)).ravel()
+
+
+def _live_rows(S: sp.csr_array, diagonal: np.ndarray) -> tuple[np.ndarray, int | None]:
+    """The rows of ``S`` with a non-zero entry, and the first of them whose diagonal is
+    zero (None if none is). An all-zero row is an eigenvalue 0 on its own, semidefinite
+    under any tolerance; a row with entries but a zero diagonal makes ``-L + diag(tol)``
+    indefinite whatever the tolerances (its 2 x 2 principal minor with an off-diagonal
+    entry has a negative determinant)."""
+    live = np.asarray(abs(S).sum(axis=1)).ravel() > 0
+    zero = np.flatnonzero(live & (diagonal == 0))
+    return np.flatnonzero(live), (int(zero[0]) if len(zero) else None)
+
+
+def _dense(S: sp.csr_array, diagonal: np.ndarray):
+    """(is NSD, smallest eigenvalue of -L, method) from dense eigenvalues: those of ``-L``
+    (the smallest is reported) and, unless that one already says no, those of the
+    Jacobi-scaled ``D^-1/2 (-L) D^-1/2`` on the rows with entries, which decide."""
+    A = (-S).toarray()
+    lam = float(interruptible(np.linalg.eigvalsh, A)[0])
+    verdict = False  # lambda_min(-L + diag(tol)) <= lam + max(tol) < 0
+    if lam >= -NSD_RTOL * diagonal.max():
+        live, zero_diagonal = _live_rows(S, diagonal)
+        verdict = zero_diagonal is None
+        if verdict and len(live):
+            s = 1 / np.sqrt(diagonal[live])
+            B = A[np.ix_(live, live)] * s[:, None] * s[None, :]
+            verdict = float(interruptible(np.linalg.eigvalsh, B)[0]) >= -NSD_RTOL
+    return verdict, lam, "dense eigenvalues"
 
 
 def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool):
     """(is NSD, smallest eigenvalue of -L or a witness' Rayleigh quotient, method)."""
     n = L.shape[0]
-    tol = NSD_RTOL * scale
-    if n <= DENSE_NSD_MAX:
-        lam = float(interruptible(np.linalg.eigvalsh, (-(L + L.T) / 2).toarray())[0])
-        return lam >= -tol, lam, "dense eigenvalues"
-    answer = _element_certificate(L, V, T, scale, tol, kind, assembled)
-    if answer is not None:
-        return answer
     S = (L + L.T) / 2
     S.sort_indices()
+    diagonal = np.abs(S.diagonal())
+    if n <= DENSE_NSD_MAX:
+        return _dense(S, diagonal)
+    tol = NSD_RTOL * diagonal
+    answer = _element_certificate(S, V, T, scale, tol, kind, assembled)
+    if answer is not None:
+        return answer
     verdict, name, details = _core.negative_semidefinite(n, _sparse.arrays(S), tol)
     if name == "local certificate":
         name = (f"local certificate: {details['groups']} neighbourhoods of <= "
@@ -317,26 +353,37 @@ def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool):
                   f"<= {_core.MAX_GROUP} vertices")
         if n > SPARSE_NSD_MAX:
             return None, None, f"undetermined: {reason} (n > {SPARSE_NSD_MAX})"
-        negatives = _ldl_inertia(-S, tol)
+        live, zero_diagonal = _live_rows(S, diagonal)
+        if zero_diagonal is not None:
+            return False, None, (f"row {zero_diagonal} of L has entries but a zero diagonal "
+                                 "(an indefinite 2 x 2 principal minor)")
+        negatives = _ldl_inertia((-S)[live][:, live], tol[live])
         if negatives is None:
             return None, None, f"undetermined: {reason}; the LDL^T pivoted off the diagonal"
-        return negatives == 0, None, (f"inertia of a sparse LDL^T of -L + {tol:.1e} I: "
-                                      f"{negatives} negative pivots ({reason})")
+        return negatives == 0, None, (f"inertia of a sparse LDL^T of -L + {NSD_RTOL:.0e} "
+                                      f"diag(|L_ii|): {negatives} negative pivots ({reason})")
     return verdict, None, name
 
 
-def _element_certificate(L, V, T, scale: float, tol: float, kind, assembled: bool):
-    """The NSD answer from the per-tet matrices, if ``L`` is the mesh's operator ``kind``
-    (the primal, then the dual, when ``kind`` is None): ``-L = sum_t K_t + D`` with
-    ``|D| <= gap``; every ``K_t`` is checked, failing ones in small groups of neighbours
-    (:func:`tetlap._core.element_certificate`). None when ``L`` is none of them or a
-    group could not be certified. ``assembled``: ``L`` is that operator (gap zero)."""
+def _element_certificate(S, V, T, scale: float, tol: np.ndarray, kind, assembled: bool):
+    """The NSD answer from the per-tet matrices, if ``S`` (the symmetric part of ``L``) is
+    the mesh's operator ``kind`` (the primal, then the dual, when ``kind`` is None):
+    ``-S = sum_t K_t + E`` with ``|x^T E x| <= sum_i gap_i x_i^2``; every ``K_t`` is
+    checked, failing ones in small groups of neighbours, with the shifts ``tol - gap``
+    (:func:`tetlap._core.element_certificate`). None when ``S`` is none of them, a gap
+    exceeds its vertex's tolerance or a group could not be certified. ``assembled``: ``L``
+    is that operator (gaps zero)."""
+    n = V.shape[0]
     for candidate in ("primal", "dual") if kind is None else (kind,):
-        gap = 0.0 if assembled else _difference(L, assembly.laplacian(V, T, candidate, degenerate="skip"))
+        gaps = (np.zeros(n) if assembled
+                else _row_gaps(S, assembly.laplacian(V, T, candidate, degenerate="skip")))
+        gap = float(gaps.max())
         if gap > 1e-12 * scale:
             continue
+        if (gaps > tol).any():
+            return None
         W = assembly.element_contributions(V, T, candidate, degenerate="skip")
-        verdict, _, details = _core.element_certificate(T, V.shape[0], W, tol - gap)
+        verdict, _, details = _core.element_certificate(T, n, W, tol - gaps)
         if not verdict:
             return None
         name = candidate if isinstance(candidate, str) else f"t = {candidate:g} affine"
