@@ -2,7 +2,7 @@
 edge_weights, element_contributions): every route gives the same operator, the output layout
 is the documented one, the result does not depend on the thread count, and the options
 do what they say. (The paper's properties of the operators: test_invariants.py; inputs
-and their errors: test_inputs.py.)"""
+and their errors: test_arrays.py.)"""
 
 from __future__ import annotations
 

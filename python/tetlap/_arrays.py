@@ -6,10 +6,11 @@ parses them into its own types and raises :class:`tetlap.OptionError` itself.
 
 from __future__ import annotations
 
-import numpy as np
-
+import functools
+import inspect
 import numbers
 
+import numpy as np
 import scipy.sparse as sp
 
 from . import _meshobj
@@ -49,6 +50,39 @@ def mesh(V, T):
             f"T is missing: pass V and T arrays, or one mesh object (meshio, PyVista, ...) "
             f"instead of V; got {type(V).__name__}")
     return V, T
+
+
+def takes_mesh_object(f):
+    """Decorator for a function of ``(..., V, T, after, ...)``: one mesh object in place of
+    ``V`` is followed directly by the arguments after ``T``, as users write it
+    (``laplacian(mesh, "dual")``, ``check(L, mesh, M)``, ``dirichlet_energy(mesh, f)``);
+    :func:`mesh` then reads the object. With a mesh object, an array in the place of ``T``
+    where an option (a name or a number) or nothing positional follows is a ``TypeError``:
+    the object carries its own cells."""
+    params = list(inspect.signature(f).parameters.values())
+    at = [p.name for p in params].index("T")
+    after = params[at + 1] if at + 1 < len(params) else None
+    positional = after is not None and after.kind is inspect.Parameter.POSITIONAL_OR_KEYWORD
+    option = positional and isinstance(after.default, (str, numbers.Number))
+    name = f.__qualname__.removesuffix(".__init__")
+
+    @functools.wraps(f)
+    def wrapper(*args, **kwargs):
+        V = args[at - 1] if len(args) >= at else kwargs.get("V")
+        if _meshobj.is_mesh_object(V):
+            if kwargs.get("T") is not None:
+                raise TypeError(f"{name}: a mesh object carries its cells; pass T only "
+                                "with a V array")
+            if len(args) > at and args[at] is not None:
+                if not positional or (option and isinstance(args[at], (np.ndarray, list, tuple))):
+                    raise TypeError(f"{name}: a mesh object carries its cells; pass it "
+                                    "alone, or V and T arrays")
+                args = args[:at] + (None,) + args[at:]
+            elif len(args) <= at:
+                kwargs.setdefault("T", None)
+        return f(*args, **kwargs)
+
+    return wrapper
 
 
 def points(V) -> np.ndarray:

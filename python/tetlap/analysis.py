@@ -122,6 +122,7 @@ def _fmt(value, template: str) -> str:
     return "" if value is None else template.format(value)
 
 
+@_arrays.takes_mesh_object
 def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL,
           nsd: bool = True) -> Report:
     """Check a Laplacian ``L`` (and mass ``M``) of the mesh ``(V, T)`` against Table 1.

@@ -39,6 +39,7 @@ def _inputs(V, T, weights):
     return V, T, _arrays.vertex_weights(weights, V.shape[0])
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def laplacian(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
               degenerate="raise", threads=None) -> sp.csr_array:
@@ -75,6 +76,7 @@ def laplacian(V, T=None, kind="primal", *, boundary="circumcentric", weights=Non
     return _sparse.csr(arrays, V.shape[0])
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def mass(V, T=None, kind="barycentric", *, boundary="circumcentric", weights=None,
          degenerate="raise", threads=None) -> sp.csr_array:
@@ -108,6 +110,7 @@ def mass(V, T=None, kind="barycentric", *, boundary="circumcentric", weights=Non
     return _sparse.mass(result, V.shape[0])
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def operators(V, T=None, laplacian="primal", mass="barycentric", *, boundary="circumcentric",
               weights=None, degenerate="raise",
@@ -157,6 +160,7 @@ class Triplets(NamedTuple):
     shape: tuple[int, int]
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def triplets(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
              degenerate="raise", threads=None) -> Triplets:
@@ -194,6 +198,7 @@ def triplets(V, T=None, kind="primal", *, boundary="circumcentric", weights=None
     return Triplets(rows, cols, vals, (n, n))
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def edge_weights(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
                  degenerate="raise", threads=None) -> tuple[np.ndarray, np.ndarray]:
@@ -227,6 +232,7 @@ def edge_weights(V, T=None, kind="primal", *, boundary="circumcentric", weights=
                           options=_options(boundary, degenerate, threads))
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def element_contributions(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
                           degenerate="raise", threads=None) -> np.ndarray:

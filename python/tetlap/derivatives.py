@@ -115,11 +115,13 @@ def _mass_cotangent(dM, n: int):
 
 
 def _mesh(V, T, weights):
+    V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
     return V, T, _arrays.vertex_weights(weights, V.shape[0])
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
         boundary="circumcentric", weights=None, degenerate="raise", threads=None) -> VJP:
@@ -218,6 +220,7 @@ def _energy(V, T, f, lap, mass, weights, boundary, degenerate, threads, return_w
     return float(value), dV
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def dirichlet_energy(V, T, f, kind="primal", *, boundary="circumcentric", weights=None,
                      degenerate="raise", threads=None, return_weights_gradient=False):
@@ -276,6 +279,7 @@ def dirichlet_energy(V, T, f, kind="primal", *, boundary="circumcentric", weight
                    return_weights_gradient)
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def mass_energy(V, T, f, kind="barycentric", *, boundary="circumcentric", weights=None,
                 degenerate="raise", threads=None, return_weights_gradient=False):
