@@ -104,12 +104,7 @@ def from_mesh(obj, cell_type=None):
     ((27, 3), (48, 4), 'int64')
     >>> L = tetlap.laplacian(*tetlap.io.from_mesh(mesh), kind="dual")
 
-    A pyvista grid (here made by :func:`to_pyvista`) goes the same way:
-
-    >>> grid = tetlap.io.to_pyvista(V, T)
-    >>> V3, T3 = tetlap.io.from_mesh(grid)
-    >>> bool((T3 == T).all())
-    True
+    A pyvista grid goes the same way (see :func:`to_pyvista`).
     """
     return to_arrays(obj, cell_type, stacklevel=2)
 
@@ -343,6 +338,12 @@ def to_pyvista(V, T, point_data=None, cell_data=None):
     >>> grid.n_cells == len(T), bool(abs(grid["dual_mass"].sum() - 1.0) < 1e-12)
     (True, True)
     >>> grid.plot(scalars="dual_mass")  # doctest: +SKIP
+
+    And back, as any mesh object (:func:`from_mesh`):
+
+    >>> V2, T2 = tetlap.io.from_mesh(grid)
+    >>> bool((V2 == V).all() and (T2 == T).all())
+    True
     """
     pv = _pyvista()
     V, T, points, cells = _checked(V, T, point_data, cell_data)
