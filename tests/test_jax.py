@@ -203,3 +203,5 @@ def test_adapter_grad_jit_and_bcoo():
     assert rel(gw, expected.dweights) < 1e-13
     with pytest.raises(tetlap.OptionError):
         tj.mass(V, T, "fem")
+    with pytest.raises(tetlap.ShapeError, match=r"shape \(n, d\)"):
+        tj.operators(V[0], T)

@@ -123,6 +123,29 @@ def elements(T, n_columns=(3, 4)) -> np.ndarray:
     return np.ascontiguousarray(arr, dtype=np.int64)
 
 
+def in_range(A: np.ndarray, n: int, row: str) -> None:
+    """IndexRangeError naming the first row of the integer array ``A`` (``row`` says what
+    a row is: "element", "edge") with an entry outside ``0..n-1``."""
+    bad = (A < 0) | (A >= n)
+    if bad.any():
+        first = int(np.flatnonzero(bad.any(axis=1))[0])
+        index = int(A[first][bad[first]][0])
+        raise IndexRangeError(f"{row} {first} refers to vertex {index}, but there are {n} "
+                              "vertices", element=first, index=index)
+
+
+def edges(E, n: int, name: str = "edges") -> np.ndarray:
+    """``E`` as a new ``(E, 2)`` int64 array of vertex indices in ``0..n-1``."""
+    arr = _as_array(E, name)
+    if arr.dtype.kind not in "iu":
+        raise DtypeError(f"{name} must hold integer vertex indices, got dtype {arr.dtype}")
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise ShapeError(f"{name} must have shape (E, 2), got {arr.shape}")
+    arr = arr.astype(np.int64)
+    in_range(arr, n, "edge")
+    return arr
+
+
 def vertex_weights(w, n: int) -> np.ndarray | None:
     """Per-vertex weights as a contiguous (n,) float64 array, or None."""
     if w is None:

@@ -32,11 +32,15 @@ def _options(boundary, degenerate, threads) -> dict:
     return {"boundary": boundary, "degenerate": degenerate, "threads": threads}
 
 
-def _inputs(V, T, weights):
+def _assemble(what: tuple, V, T, weights, boundary, degenerate, threads):
+    """``(the core's result for what, n)``: the one path of every function here from the
+    user's arguments to :func:`tetlap._core.assemble`."""
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T)
-    return V, T, _arrays.vertex_weights(weights, V.shape[0])
+    w = _arrays.vertex_weights(weights, V.shape[0])
+    options = _options(boundary, degenerate, threads)
+    return _core.assemble(V, T, what, weights=w, options=options), V.shape[0]
 
 
 @_arrays.takes_mesh_object
@@ -70,10 +74,8 @@ def laplacian(V, T=None, kind="primal", *, boundary="circumcentric", weights=Non
     >>> L[[0], :].toarray().round(4)
     array([[-0.75,  0.25,  0.25,  0.25]])
     """
-    V, T, w = _inputs(V, T, weights)
-    arrays = _core.assemble(V, T, ("laplacian", kind), weights=w,
-                            options=_options(boundary, degenerate, threads))
-    return _sparse.csr(arrays, V.shape[0])
+    arrays, n = _assemble(("laplacian", kind), V, T, weights, boundary, degenerate, threads)
+    return _sparse.csr(arrays, n)
 
 
 @_arrays.takes_mesh_object
@@ -104,10 +106,8 @@ def mass(V, T=None, kind="barycentric", *, boundary="circumcentric", weights=Non
     >>> tetlap.mass(V, [[0, 1, 2, 3]], kind="circumcentric").diagonal() * 72
     array([9., 1., 1., 1.])
     """
-    V, T, w = _inputs(V, T, weights)
-    result = _core.assemble(V, T, ("mass", kind), weights=w,
-                            options=_options(boundary, degenerate, threads))
-    return _sparse.mass(result, V.shape[0])
+    result, n = _assemble(("mass", kind), V, T, weights, boundary, degenerate, threads)
+    return _sparse.mass(result, n)
 
 
 @_arrays.takes_mesh_object
@@ -143,10 +143,8 @@ def operators(V, T=None, laplacian="primal", mass="barycentric", *, boundary="ci
     >>> round(float(M.sum()), 12)
     1.0
     """
-    V, T, w = _inputs(V, T, weights)
-    L, M = _core.assemble(V, T, ("operators", laplacian, mass), weights=w,
-                          options=_options(boundary, degenerate, threads))
-    n = V.shape[0]
+    (L, M), n = _assemble(("operators", laplacian, mass), V, T, weights, boundary, degenerate,
+                          threads)
     return _sparse.csr(L, n), _sparse.mass(M, n)
 
 
@@ -191,10 +189,8 @@ def triplets(V, T=None, kind="primal", *, boundary="circumcentric", weights=None
     >>> bool(abs(L - tetlap.laplacian(V, T)).max() < 1e-12)
     True
     """
-    V, T, w = _inputs(V, T, weights)
-    rows, cols, vals = _core.assemble(V, T, ("triplets", kind), weights=w,
-                                      options=_options(boundary, degenerate, threads))
-    n = V.shape[0]
+    (rows, cols, vals), n = _assemble(("triplets", kind), V, T, weights, boundary, degenerate,
+                                      threads)
     return Triplets(rows, cols, vals, (n, n))
 
 
@@ -227,9 +223,7 @@ def edge_weights(V, T=None, kind="primal", *, boundary="circumcentric", weights=
     >>> edges[0].tolist(), float(w[0])
     ([0, 1], 0.25)
     """
-    V, T, w = _inputs(V, T, weights)
-    return _core.assemble(V, T, ("edge_weights", kind), weights=w,
-                          options=_options(boundary, degenerate, threads))
+    return _assemble(("edge_weights", kind), V, T, weights, boundary, degenerate, threads)[0]
 
 
 @_arrays.takes_mesh_object
@@ -262,9 +256,7 @@ def element_contributions(V, T=None, kind="primal", *, boundary="circumcentric",
     >>> (tetlap.element_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12) + 0.0  # no -0.
     array([[1., 1., 1., 0., 0., 0.]])
     """
-    V, T, w = _inputs(V, T, weights)
-    return _core.assemble(V, T, ("contributions", kind), weights=w,
-                          options=_options(boundary, degenerate, threads))
+    return _assemble(("contributions", kind), V, T, weights, boundary, degenerate, threads)[0]
 
 
 #: The name of :func:`element_contributions` until 0.1 (it returns triangles' weights too),

@@ -69,17 +69,10 @@ def _csr(A, n: int, name: str):
 
 def _edge_csr(edges, dw, n: int):
     """An upper-triangular cotangent from per-edge cotangents ``dw`` on ``edges``."""
-    edges = _arrays._as_array(edges, "the edges of dL")
-    if edges.dtype.kind not in "iu":
-        raise DtypeError(f"the edges of dL must be integers, got dtype {edges.dtype}")
-    if edges.ndim != 2 or edges.shape[1] != 2:
-        raise ShapeError(f"the edges of dL must have shape (E, 2), got {edges.shape}")
+    edges = _arrays.edges(edges, n, "the edges of dL")
     dw = _real(dw, "the edge cotangent dw")
     if dw.shape != (len(edges),):
         raise ShapeError(f"dw must have shape ({len(edges)},), one per edge, got {dw.shape}")
-    if len(edges) and (edges.min() < 0 or edges.max() >= n):
-        raise ShapeError(f"the edges of dL must hold vertex indices in 0..{n - 1}")
-    edges = edges.astype(np.int64)
     i, j = edges.min(axis=1), edges.max(axis=1)
     if np.any(i == j):
         raise ShapeError("the edges of dL must join two distinct vertices")
