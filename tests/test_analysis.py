@@ -3,6 +3,7 @@ semidefiniteness answer against dense eigenvalues."""
 
 from __future__ import annotations
 
+import functools
 import json
 
 import numpy as np
@@ -160,11 +161,13 @@ def local_scaled_eigenvalue(L, vertices) -> float:
     return float(scipy.linalg.eigh(A, np.diag(np.abs(np.diag(A))), eigvals_only=True)[0])
 
 
+@functools.lru_cache
 def flipped_ball(n: int, seed: int = 1, skip: int = 0):
     """A random Delaunay ball after one 2-3 flip that makes its dual indefinite: ``(V, T,
     mu)`` for the first flip (after ``skip`` such flips, in the order of the interior
     faces) whose neighbourhood's scaled eigenvalue ``mu`` is below -1e-6 while its
-    unscaled one stays above -0.1 (a mild indefiniteness, in the ball's own units)."""
+    unscaled one stays above -0.1 (a mild indefiniteness, in the ball's own units).
+    Cached: the arrays are shared, never modify them."""
     V, T = tetlap.meshes.ball(n, seed=seed)
     tets, opposite = tetlap.diagnostics.interior_faces(T)
     for (t1, t2), (a, b) in zip(tets, opposite):
