@@ -1,8 +1,8 @@
 """tetlap.assembly: the one-shot functions (laplacian, mass, operators, triplets,
-edge_weights, tet_contributions): every route gives the same operator, the output layout
+edge_weights, element_contributions): every route gives the same operator, the output layout
 is the documented one, the result does not depend on the thread count, and the options
 do what they say. (The paper's properties of the operators: test_invariants.py; inputs
-and their errors: test_inputs.py.)"""
+and their errors: test_arrays.py.)"""
 
 from __future__ import annotations
 
@@ -13,6 +13,8 @@ import scipy.sparse as sp
 import tetlap
 from conftest import jittered_cube, non_delaunay, random_ball
 from tetlap.benchmark import shuffled
+from tetlap.diagnostics import (boundary_faces, faces, interior_vertices, mesh_edges,
+                                signed_volumes)
 
 KINDS = ["primal", "dual", 0.3]
 MASSES = ["barycentric", "circumcentric", "fem"]
@@ -58,7 +60,7 @@ def test_all_routes_agree(mesh):
     assert abs(sp.coo_array((v, (r, c)), shape=shape).tocsr() - L).max() <= 1e-14 * scale_of(L)
     edges, w = tetlap.edge_weights(V, T, "dual")
     np.testing.assert_array_equal(w, L[edges[:, 0], edges[:, 1]])
-    W = tetlap.tet_contributions(V, T, "dual")
+    W = tetlap.element_contributions(V, T, "dual")
     local = LOCAL_EDGES
     rows = np.concatenate([T[:, a] for a, b in local])
     cols = np.concatenate([T[:, b] for a, b in local])
@@ -93,7 +95,7 @@ def test_triplets_are_each_tets_local_laplacian_in_the_documented_order():
     rows, cols, vals = (x.reshape(len(T), 4, 4) for x in trip[:3])
     np.testing.assert_array_equal(rows, np.repeat(T[:, :, None], 4, axis=2))
     np.testing.assert_array_equal(cols, np.repeat(T[:, None, :], 4, axis=1))
-    W = tetlap.tet_contributions(V, T, "dual")
+    W = tetlap.element_contributions(V, T, "dual")
     for e, (a, b) in enumerate(LOCAL_EDGES):
         np.testing.assert_array_equal(vals[:, a, b], W[:, e])
         np.testing.assert_array_equal(vals[:, b, a], W[:, e])
@@ -112,16 +114,23 @@ def test_edge_weights_are_the_unique_sorted_edges():
     np.testing.assert_array_equal(edges, np.unique(pairs, axis=0))
 
 
-def test_tet_contributions_of_the_corner_tet():
+def test_element_contributions_of_the_corner_tet():
     """By hand: the primal weight of edge ij is |e_kl| cot(theta_kl) / 6 for the opposite
     edge kl and its dihedral angle: 1/6 on the three edges at the right-angled corner
     (|e_kl| = sqrt 2, cot theta_kl = 1 / sqrt 2), 0 on the others (theta_kl = 90 deg)."""
-    W = tetlap.tet_contributions(CORNER_V, [[0, 1, 2, 3]], "primal")
+    W = tetlap.element_contributions(CORNER_V, [[0, 1, 2, 3]], "primal")
     assert W.shape == (1, 6)
     np.testing.assert_allclose(W[0], [1 / 6] * 3 + [0] * 3, atol=1e-16)
     # the corners in another order: the weights follow their edges
-    W2 = tetlap.tet_contributions(CORNER_V, [[1, 2, 3, 0]], "primal")
+    W2 = tetlap.element_contributions(CORNER_V, [[1, 2, 3, 0]], "primal")
     np.testing.assert_allclose(W2[0], [0, 0, 1 / 6, 0, 1 / 6, 1 / 6], atol=1e-16)
+
+
+def test_tet_contributions_is_the_old_name_of_element_contributions():
+    from tetlap import assembly
+
+    assert tetlap.tet_contributions is tetlap.element_contributions
+    assert assembly.tet_contributions is assembly.element_contributions
 
 
 # ---- output layout --------------------------------------------------------------------
@@ -170,9 +179,21 @@ def test_a_mesh_object_stands_for_v_and_t():
     obj = meshio.Mesh(V, [("tetra", T)])
     assert same_csr(tetlap.laplacian(obj, kind="dual"), tetlap.laplacian(V, T, "dual"))
     assert same_csr(tetlap.mass(obj, kind="fem"), tetlap.mass(V, T, "fem"))
-    np.testing.assert_array_equal(tetlap.tet_contributions(obj), tetlap.tet_contributions(V, T))
+    np.testing.assert_array_equal(tetlap.element_contributions(obj), tetlap.element_contributions(V, T))
     np.testing.assert_array_equal(tetlap.edge_weights(obj)[1], tetlap.edge_weights(V, T)[1])
     np.testing.assert_array_equal(tetlap.triplets(obj).vals, tetlap.triplets(V, T).vals)
+
+
+def test_duplicate_and_nonmanifold_tets_follow_the_documented_policy():
+    V, T = tetlap.meshes.cube(2)
+    T2 = np.vstack([T, T[:1][:, ::-1]])  # tet 0 again, reversed: counted twice
+    assert tetlap.diagnostics.duplicate_tets(T2).tolist() == [False] * len(T) + [True]
+    # its 3 interior faces are now in 3 tets; its boundary face only in 2
+    assert len(tetlap.diagnostics.nonmanifold_faces(T2)) == 3
+    L, L2 = tetlap.laplacian(V, T), tetlap.laplacian(V, T2)
+    extra = tetlap.laplacian(V, T[:1])
+    assert abs(L2 - (L + extra)).max() < 1e-15
+    assert tetlap.mass(V, T2).sum() == pytest.approx(tetlap.mass(V, T).sum() + 1 / 48)
 
 
 # ---- threads --------------------------------------------------------------------------
@@ -237,3 +258,134 @@ def test_degenerate_skip_drops_only_the_flat_tet():
         assert L[0, 4] == 0 and L.nnz > expected.astype(bool).sum()  # explicit zeros kept
     m = tetlap.mass(V, T, "circumcentric", degenerate="skip").diagonal()
     assert m[4] == 0 and m.sum() == pytest.approx(1 / 6 + 1 / 6 * 1)
+
+
+# ---- vertex weights (power-diagram duals) and the barycentric boundary (Sec. 6, 9) -------
+
+
+def interior_edge_mask(T, edges):
+    bf = np.sort(boundary_faces(T), axis=1)
+    on_boundary = {(a, b) for f in bf for a, b in ((f[0], f[1]), (f[0], f[2]), (f[1], f[2]))}
+    return np.array([(i, j) not in on_boundary for i, j in edges])
+
+
+@pytest.fixture
+def ball():
+    return tetlap.meshes.ball(700, seed=5)
+
+
+def test_zero_weights_reproduce_the_plain_dual(ball):
+    V, T = ball
+    zeros = np.zeros(len(V))
+    for f in (lambda **kw: tetlap.laplacian(V, T, "dual", **kw),
+              lambda **kw: tetlap.mass(V, T, "circumcentric", **kw)):
+        A, B = f(), f(weights=zeros)
+        assert abs(A - B).max() <= 1e-12 * abs(A).max()
+    # constant weights change nothing either (only differences of powers matter)
+    A = tetlap.laplacian(V, T, "dual")
+    B = tetlap.laplacian(V, T, "dual", weights=np.full(len(V), 0.37))
+    assert abs(A - B).max() <= 1e-12 * abs(A).max()
+
+
+@pytest.mark.parametrize("scale", [0.01, 0.1, 1.0])
+def test_weighted_dual_linear_precision_and_volume_for_any_weights(ball, scale, rng):
+    V, T = ball
+    h2 = (np.linalg.norm(V[T[:, 0]] - V[T[:, 1]], axis=1) ** 2).mean()
+    w = rng.uniform(-scale, scale, size=len(V)) * h2
+    L = tetlap.laplacian(V, T, "dual", weights=w)
+    plain = tetlap.laplacian(V, T, "dual")
+    assert abs(L - plain).max() > 1e-6 * abs(plain).max()  # the weights do something
+    s = abs(L).max()
+    assert abs(L - L.T).max() <= 1e-13 * s
+    inner = interior_vertices(T, len(V))
+    assert np.abs((L @ V)[inner]).max() <= 1e-11 * s
+    M = tetlap.mass(V, T, "circumcentric", weights=w)
+    assert M.sum() == pytest.approx(np.abs(signed_volumes(V, T)).sum(), rel=1e-12)
+    # pyramid identity does NOT hold for weighted duals (the dual face is off-centre),
+    # but the mass is still the sum of the signed pieces: check against the unweighted
+    # decomposition of the same tets being a different split of the same volume
+    assert not np.allclose(M.diagonal(), tetlap.mass(V, T, "circumcentric").diagonal())
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_regular_triangulation_has_non_negative_interior_weights(seed):
+    """Weighted analogue of the Delaunay result: on the regular triangulation of the
+    weights, every interior edge's dual face is a power-diagram face, area >= 0."""
+    rng = np.random.default_rng(seed)
+    V = rng.uniform(-1, 1, size=(250, 3))
+    w = rng.uniform(0, 0.05, size=len(V))
+    T = tetlap.meshes.regular_triangulation(V, w)
+    edges, weights = tetlap.edge_weights(V, T, "dual", weights=w)
+    inner = interior_edge_mask(T, edges)
+    assert inner.sum() > 100
+    assert weights[inner].min() >= -1e-10 * np.abs(weights).max()
+    # ... while the unweighted dual of the same (non-Delaunay) mesh has negative ones
+    _, plain = tetlap.edge_weights(V, T, "dual")
+    assert plain[inner].min() < -1e-6 * np.abs(plain).max()
+
+
+def test_weights_are_validated(ball):
+    V, T = ball
+    with pytest.raises(tetlap.ShapeError, match="one per vertex"):
+        tetlap.laplacian(V, T, "dual", weights=np.zeros(3))
+    w = np.zeros(len(V))
+    w[7] = np.nan
+    with pytest.raises(tetlap.NonFiniteError, match="vertex 7") as e:
+        tetlap.laplacian(V, T, "dual", weights=w)
+    assert e.value.vertex == 7
+    with pytest.raises(tetlap.OptionError, match="boundary"):
+        tetlap.laplacian(V, T, "dual", boundary="voronoi")
+
+
+def test_primal_ignores_weights_and_boundary(ball):
+    V, T = ball
+    P = tetlap.laplacian(V, T, "primal")
+    Q = tetlap.laplacian(V, T, "primal", weights=np.ones(len(V)), boundary="barycentric")
+    assert (P != Q).nnz == 0
+
+
+def boundary_tet_mask(T):
+    F = np.sort(faces(T), axis=1)
+    _, inverse, counts = np.unique(F, axis=0, return_inverse=True, return_counts=True)
+    return (counts[inverse.ravel()] == 1).reshape(-1, 4).any(axis=1)
+
+
+def test_barycentric_boundary_guarantees_and_cost():
+    V, T = tetlap.meshes.ball(1500, seed=8)
+    fixed = boundary_tet_mask(T)
+    W = tetlap.element_contributions(V, T, "dual", boundary="barycentric")
+    W0 = tetlap.element_contributions(V, T, "dual")
+    assert (W0[fixed] < 0).any()  # the plain construction has negative boundary weights
+    assert (W[fixed] >= 0).all()  # guarantee: non-negative contributions in fixed tets
+    np.testing.assert_array_equal(W[~fixed], W0[~fixed])  # other tets untouched
+    L, M = tetlap.operators(V, T, "dual", "circumcentric", boundary="barycentric")
+    m = M.diagonal()
+    assert (m > 0).all()  # guarantee: positive mass everywhere
+    assert m.sum() == pytest.approx(np.abs(signed_volumes(V, T)).sum(), rel=1e-12)
+    # cost: linear precision survives at interior vertices away from the boundary tets...
+    touched = np.zeros(len(V), dtype=bool)
+    touched[T[fixed].ravel()] = True
+    inner = interior_vertices(T, len(V))
+    s = abs(L).max()
+    assert np.abs((L @ V)[inner & ~touched]).max() <= 1e-12 * s
+    # ... and is lost at (some) interior vertices of boundary tets
+    assert np.abs((L @ V)[inner & touched]).max() > 1e-6 * s
+    edges = mesh_edges(T)
+    w = L[edges[:, 0], edges[:, 1]]
+    on_fixed = np.isin(edges, np.unique(T[fixed])).all(axis=1)
+    plain = tetlap.laplacian(V, T, "dual")[edges[:, 0], edges[:, 1]]
+    assert (w < 0).sum() < (plain < 0).sum()
+    assert on_fixed.any()
+
+
+def test_mesh_with_weights_and_boundary_matches_one_shot(ball, rng):
+    V, T = ball
+    w = rng.uniform(0, 1e-3, size=len(V))
+    kw = dict(weights=w, boundary="barycentric")
+    mesh = tetlap.Mesh(V, T, **kw)
+    assert (mesh.laplacian("dual") != tetlap.laplacian(V, T, "dual", **kw)).nnz == 0
+    V2 = V.copy()
+    V2[:20] *= 1.01
+    mesh.update(V2)
+    assert (mesh.laplacian("dual") != tetlap.laplacian(V2, T, "dual", **kw)).nnz == 0
+    assert (mesh.mass("circumcentric") != tetlap.mass(V2, T, "circumcentric", **kw)).nnz == 0

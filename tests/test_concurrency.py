@@ -1,5 +1,6 @@
-"""Threads: a Mesh shared between Python threads, bounded worker threads, one pool per
-count, determinism for any count."""
+"""Threads: the GIL released during assembly, concurrent calls equal to serial ones, a Mesh
+shared between Python threads, bounded worker threads, one pool per count, determinism
+for any count."""
 
 from __future__ import annotations
 
@@ -101,3 +102,41 @@ def test_mesh_of_triangles_is_thread_safe_too():
     with ThreadPoolExecutor(max_workers=4) as pool:
         results = list(pool.map(lambda k: mesh.mass(k), ["barycentric", "circumcentric"] * 8))
     assert all(abs(M.sum() - 1) < 1e-12 for M in results)
+
+
+def test_the_gil_is_released_during_assembly():
+    V, T = tetlap.meshes.cube(36, jitter=0.1)  # 280k tets: ~0.1-0.3 s
+    start = time.perf_counter()
+    tetlap.operators(V, T, "dual", "circumcentric", threads=1)
+    serial = time.perf_counter() - start
+    ticks = 0
+    done = threading.Event()
+
+    def work():
+        tetlap.operators(V, T, "dual", "circumcentric", threads=1)
+        done.set()
+
+    thread = threading.Thread(target=work)
+    thread.start()
+    while not done.is_set():
+        ticks += 1
+        time.sleep(0.001)
+    thread.join()
+    # with the GIL held the loop could tick at most once or twice before the call returned
+    assert serial > 0.02, "the call is too short to tell"
+    assert ticks >= 5, (ticks, serial)
+
+
+def test_concurrent_calls_equal_serial_calls():
+    meshes = [tetlap.meshes.cube(k, jitter=0.2, seed=k) for k in (3, 5, 7, 9)]
+    jobs = [(V, T, kind) for V, T in meshes for kind in ("primal", "dual", 0.5)] * 2
+
+    def run(job):
+        V, T, kind = job
+        L, M = tetlap.operators(V, T, kind, "circumcentric")
+        return L.data.tobytes(), M.data.tobytes()
+
+    serial = [run(j) for j in jobs]
+    with ThreadPoolExecutor(max_workers=6) as pool:
+        parallel = list(pool.map(run, jobs))
+    assert parallel == serial

@@ -128,7 +128,7 @@ def test_random_cotangents_match_differences(seed, kind, mass, form):
     else:
         dW = rng.normal(size=(m, 6))
         dL = dW
-        phiL = lambda X: float((tetlap.tet_contributions(X, T, kind) * dW).sum())  # noqa: E731
+        phiL = lambda X: float((tetlap.element_contributions(X, T, kind) * dW).sum())  # noqa: E731
     g = tetlap.vjp(V, T, kind, mass, dL=dL, dM=sp.coo_array(dMd))
 
     def phi(X):
@@ -304,8 +304,10 @@ def test_errors():
         tetlap.vjp(V, T, dL=sp.eye_array(n + 1))
     with pytest.raises(tetlap.ShapeError):
         tetlap.vjp(V, T, dL=(np.array([[0, 1]]), np.ones(2)))
-    with pytest.raises(tetlap.ShapeError):
+    with pytest.raises(tetlap.IndexRangeError, match=f"edge 0 refers to vertex {n}"):
         tetlap.vjp(V, T, dL=(np.array([[0, n]]), np.ones(1)))
+    with pytest.raises(tetlap.DtypeError, match="integer vertex indices"):
+        tetlap.vjp(V, T, dL=(np.array([[0.0, 1.0]]), np.ones(1)))
     with pytest.raises(tetlap.ShapeError):
         tetlap.vjp(V, T, mass="fem", dM=np.ones(n + 1))
     with pytest.raises(tetlap.DtypeError):

@@ -117,7 +117,7 @@ def test_dual_weights_of_well_centered_tets_are_positive():
     T = np.arange(4000).reshape(-1, 4)
     good = d.well_centered(V, T)
     assert 0 < good.sum() < len(T)
-    W = tetlap.tet_contributions(V, T[good], "dual")
+    W = tetlap.element_contributions(V, T[good], "dual")
     assert (W > 0).all()
     M = np.array([tetlap.mass(V, [t], "circumcentric").diagonal()[t] for t in T[good][:50]])
     assert (M > 0).all()

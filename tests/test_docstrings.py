@@ -2,8 +2,10 @@
 
 Every module of ``tetlap`` (found by walking the installed package, so that a new module
 with examples is picked up) is run through :mod:`doctest` with NumPy's current printing
-(``legacy=False``) and ``NORMALIZE_WHITESPACE | ELLIPSIS``. Examples that need a file or
-an optional package that is missing are marked ``# doctest: +SKIP`` in the docstring.
+(``legacy=False``) and ``NORMALIZE_WHITESPACE | ELLIPSIS``, one test per docstring.
+Examples that need a file are marked ``# doctest: +SKIP`` in the docstring; a docstring
+whose examples use an optional package (PyVista) is skipped, with the package's name,
+where it is not installed (``pip install ".[test]"`` alone).
 """
 
 from __future__ import annotations
@@ -23,9 +25,11 @@ FLAGS = doctest.NORMALIZE_WHITESPACE | doctest.ELLIPSIS
 NOT_IMPORTED = {"tetlap.__main__"}
 #: Adapters whose import needs an optional framework (skipped when it is missing).
 OPTIONAL = {"tetlap.torch": "torch", "tetlap.jax": "jax"}
+#: Optional packages that examples use, by the name their code mentions.
+EXTRAS = ("pyvista",)
 #: Modules known to have examples: discovery must find at least these.
 KNOWN = {"tetlap", "tetlap.assembly", "tetlap.diagnostics", "tetlap.errors", "tetlap.info",
-         "tetlap.io", "tetlap.mesh", "tetlap.meshes", "tetlap.properties", "tetlap.solve"}
+         "tetlap.io", "tetlap.mesh", "tetlap.meshes", "tetlap.analysis", "tetlap.solve"}
 
 
 def module_names() -> list[str]:
@@ -45,10 +49,18 @@ def examples(name: str) -> list[doctest.DocTest]:
 
 
 MODULES = [name for name in module_names() if examples(name)]
+DOCSTRINGS = {test.name: test for name in MODULES for test in examples(name)}
+
+
+def extras(test: doctest.DocTest) -> list[str]:
+    """The optional packages that the examples of ``test`` that run use."""
+    code = "".join(e.source for e in test.examples if not e.options.get(doctest.SKIP))
+    return [extra for extra in EXTRAS if extra in code]
 
 
 def test_discovery_finds_every_module_with_examples():
     assert KNOWN <= set(MODULES), sorted(KNOWN - set(MODULES))
+    assert "tetlap.io.to_pyvista" in DOCSTRINGS and extras(DOCSTRINGS["tetlap.io.to_pyvista"])
 
 
 @pytest.fixture
@@ -61,19 +73,18 @@ def numpy_defaults():
     np.set_printoptions(**saved)
 
 
-@pytest.mark.parametrize("name", MODULES)
+@pytest.mark.parametrize("name", list(DOCSTRINGS))
 def test_docstring_examples_run(name, numpy_defaults, tmp_path, monkeypatch):
+    test = DOCSTRINGS[name]
+    for extra in extras(test):
+        pytest.importorskip(extra)
     monkeypatch.chdir(tmp_path)  # examples that write files write them here
     runner = doctest.DocTestRunner(optionflags=FLAGS)
-    failures = []
-    for test in examples(name):
-        # each docstring sees a fresh copy of the module's globals, as doctest.testmod does
-        test.globs = dict(test.globs)
-        out: list[str] = []
-        result = runner.run(test, out=out.append, clear_globs=True)
-        if result.failed:
-            failures.append("".join(out))
-    assert not failures, f"{len(failures)} docstring(s) of {name} failed:\n" + "\n".join(failures)
+    # the docstring sees a fresh copy of the module's globals, as doctest.testmod does
+    test.globs = dict(test.globs)
+    out: list[str] = []
+    result = runner.run(test, out=out.append, clear_globs=True)
+    assert not result.failed, f"the examples of {name} failed:\n" + "".join(out)
 
 
 def test_the_io_examples_run_in_full(numpy_defaults, tmp_path, monkeypatch):

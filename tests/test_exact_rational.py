@@ -95,7 +95,7 @@ def test_intrinsic_eq22_matches_the_signed_volume_dual(rng):
     tets = [rng.normal(size=(4, 3)) for _ in range(200)]
     tets.append(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]]))  # right angles
     for X in tets:
-        W = tetlap.tet_contributions(X, [[0, 1, 2, 3]], "dual")[0]
+        W = tetlap.element_contributions(X, [[0, 1, 2, 3]], "dual")[0]
         expected = []
         for a, b in EDGES:
             k, l = [c for c in range(4) if c not in (a, b)]

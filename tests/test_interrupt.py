@@ -1,16 +1,32 @@
-"""Ctrl-C: every long call answers SIGINT within half a second with KeyboardInterrupt."""
+"""tetlap._interrupt and every long call: Ctrl-C (SIGINT) answers within half a second with
+KeyboardInterrupt, and an interrupted update leaves the mesh as it was.
+
+Each probe runs in a child process of its own session (``start_new_session``), which
+restores Python's SIGINT handler before it starts work: a suite started from a shell that
+ignores SIGINT (a background job, ``(python -m pytest ... &)``) passes that on to its
+children, and Python then installs no KeyboardInterrupt handler. The child is killed with
+its whole process group when the test ends, however it ends. On a loaded machine a reply
+may be late through no fault of the code: the latency is the best of up to three tries.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import os
+import select
 import signal
 import subprocess
 import sys
+import tempfile
 import textwrap
 import time
 
 import pytest
 
-PROBE = textwrap.dedent("""
+#: The first lines of every child: Python's own SIGINT handler, whatever was inherited.
+RESTORE_SIGINT = "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+
+PROBE = RESTORE_SIGINT + textwrap.dedent("""
     import sys, time, tetlap
     V, T = tetlap.meshes.cube(50, jitter=0.2)  # 750k tets
     L = tetlap.laplacian(V, T, "dual")
@@ -37,32 +53,95 @@ PROBE = textwrap.dedent("""
 CALLS = ["laplacian", "operators", "Mesh", "Mesh.update", "check", "diagnostics", "info"]
 
 
-def interrupt(call: str) -> float:
-    """Seconds from SIGINT to the KeyboardInterrupt of ``call`` running in a subprocess."""
-    p = subprocess.Popen([sys.executable, "-c", PROBE, call], stdout=subprocess.PIPE, text=True)
-    assert p.stdout.readline().strip() == "ready"
-    time.sleep(0.8)  # well inside the calls
-    sent = time.time()
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=60)
-    assert p.returncode == 3, (call, p.returncode, out)
-    return float(out.split()[1]) - sent
+@contextlib.contextmanager
+def child(code: str, *args: str):
+    """``python -c code args`` in a new session, stdout piped (stderr to a file, read by
+    :func:`line` if the child dies); on exit from the block the whole process group is
+    killed (if still running) and reaped."""
+    with tempfile.TemporaryFile("w+") as stderr:
+        p = subprocess.Popen([sys.executable, "-c", code, *args], stdout=subprocess.PIPE,
+                             stderr=stderr, text=True, start_new_session=True)
+        p.stderr_file = stderr
+        try:
+            yield p
+        finally:
+            if p.poll() is None:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(p.pid, signal.SIGKILL)
+            p.communicate()
+
+
+def line(p: subprocess.Popen, timeout: float) -> str:
+    """The child's next line of output, waiting at most ``timeout`` seconds; an
+    AssertionError with the child's stderr if it ended without one."""
+    ready, _, _ = select.select([p.stdout], [], [], timeout)
+    assert ready, f"no output from the child within {timeout} s"
+    text = p.stdout.readline()
+    if not text:
+        p.wait()
+        p.stderr_file.seek(0)
+        raise AssertionError(f"the child ended ({p.returncode}): {p.stderr_file.read()}")
+    return text.strip()
+
+
+def latency(call: str) -> float:
+    """Seconds from SIGINT to the KeyboardInterrupt of ``call`` running in a child."""
+    with child(PROBE, call) as p:
+        assert line(p, 300) == "ready"
+        time.sleep(0.8)  # well inside the calls
+        sent = time.time()
+        p.send_signal(signal.SIGINT)
+        words = line(p, 60).split()
+        assert words[:1] == ["interrupted"], (call, words)
+        assert p.wait(timeout=60) == 3
+        return float(words[1]) - sent
+
+
+def best_latency(call: str, tries: int = 3) -> float:
+    """The shortest of up to ``tries`` latencies, stopping at the first below 0.5 s."""
+    best = float("inf")
+    for _ in range(tries):
+        best = min(best, latency(call))
+        if best < 0.5:
+            break
+    return best
 
 
 def test_assembly_answers_ctrl_c():
-    assert interrupt("laplacian") < 0.5
+    assert best_latency("laplacian") < 0.5
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("call", CALLS[1:])
 def test_every_long_call_answers_ctrl_c(call):
-    assert interrupt(call) < 0.5
+    assert best_latency(call) < 0.5
+
+
+def test_a_child_of_a_shell_that_ignores_sigint_still_answers():
+    """The inherited SIG_IGN is what the probes undo: without it, SIGINT is lost."""
+    code = textwrap.dedent("""
+        import signal, sys, time
+        print(signal.getsignal(signal.SIGINT) is signal.SIG_IGN, flush=True)
+        time.sleep(60)
+    """)
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with child(code) as ignoring, child(RESTORE_SIGINT + code) as restored:
+            assert line(ignoring, 60) == "True" and line(restored, 60) == "False"
+            restored.send_signal(signal.SIGINT)
+            assert restored.wait(timeout=30) != 0  # KeyboardInterrupt ended it
+            ignoring.send_signal(signal.SIGINT)
+            with pytest.raises(subprocess.TimeoutExpired):
+                ignoring.wait(timeout=1)  # SIGINT lost: the child sleeps on
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert ignoring.returncode == -signal.SIGKILL  # killed with its group when done
 
 
 @pytest.mark.slow
 def test_an_interrupted_update_leaves_the_mesh_as_it_was():
-    code = textwrap.dedent("""
-        import signal, threading, time, os, numpy as np, tetlap
+    code = RESTORE_SIGINT + textwrap.dedent("""
+        import threading, time, os, numpy as np, tetlap
         V, T = tetlap.meshes.cube(50, jitter=0.2)
         mesh = tetlap.Mesh(V, T, threads=1)
         before = mesh.laplacian("dual").data.copy()
@@ -78,7 +157,7 @@ def test_an_interrupted_update_leaves_the_mesh_as_it_was():
         assert np.array_equal(V_now, V) or np.array_equal(V_now, V * 1.5)
         fresh = tetlap.laplacian(V_now, T, "dual").data
         assert after.tobytes() == fresh.tobytes()
-        print("consistent")
+        print("consistent", flush=True)
     """)
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
-    assert "consistent" in out.stdout, out.stderr
+    with child(code) as p:
+        assert line(p, 300) == "consistent"

@@ -1,15 +1,20 @@
-"""Invariants of both Laplacians and the masses on generated meshes (paper Sec. 7)."""
+"""Invariants of both Laplacians and the masses on generated meshes (paper Sec. 7), and the
+order of V and T: any numbering of the vertices and any order of the elements gives the
+same operators, permuted (the internal locality order decides where things are in
+memory, never what is computed)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial import Delaunay
 
 import tetlap
 from conftest import jittered_cube, non_delaunay, random_ball
+from tetlap import benchmark
 from tetlap.diagnostics import boundary_faces, interior_vertices, signed_volumes
 
 KINDS = ["primal", "dual", 0.3]
@@ -127,7 +132,7 @@ def test_vertex_order_and_orientation_do_not_matter(mesh, rng):
         a, b = tetlap.mass(V, T, kind).diagonal(), tetlap.mass(V, T2, kind).diagonal()
         np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-16)
     # per-tet weights follow the permutation of the corners
-    W, W2 = tetlap.tet_contributions(V, T, "dual"), tetlap.tet_contributions(V, T2, "dual")
+    W, W2 = tetlap.element_contributions(V, T, "dual"), tetlap.element_contributions(V, T2, "dual")
     edges = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
     for t in range(0, len(T), 17):
         by_edge = {frozenset((T[t, a], T[t, b])): W[t, e] for e, (a, b) in enumerate(edges)}
@@ -172,3 +177,68 @@ def test_dual_indefinite_on_non_delaunay_ball_but_not_on_the_delaunay_one():
         assert (lam[0] >= -1e-12 * lam[-1]) == nsd
         lam_p = np.linalg.eigvalsh(-tetlap.laplacian(V, T, "primal").toarray())
         assert lam_p[0] >= -1e-12 * lam_p[-1]
+
+
+# ---- the order of V and T ------------------------------------------------------------
+
+
+def renumbered(V, T, seed):
+    rng = np.random.default_rng(seed)
+    perm = rng.permutation(len(V))  # new vertex k is old vertex perm[k]
+    inverse = np.empty_like(perm)
+    inverse[perm] = np.arange(len(V))
+    order = rng.permutation(len(T))
+    return V[perm], inverse[T][order], perm, order
+
+
+ORDER_MESHES = {
+    "kuhn": lambda: tetlap.meshes.cube(7, jitter=0.2, seed=1),
+    "qhull order": lambda: benchmark.delaunay(6000, seed=2),
+    "real-mesh like (ball)": lambda: tetlap.meshes.ball(1500, seed=3),
+}
+
+
+@pytest.mark.parametrize("mesh", list(ORDER_MESHES))
+@pytest.mark.parametrize("seed", [0, 1])
+def test_shuffled_input_gives_the_permuted_operators(mesh, seed):
+    V, T = ORDER_MESHES[mesh]()
+    V2, T2, perm, order = renumbered(V, T, seed)
+    for kind, mass in (("primal", "barycentric"), ("dual", "circumcentric"), (0.4, "fem")):
+        L, M = tetlap.operators(V, T, kind, mass)
+        L2, M2 = tetlap.operators(V2, T2, kind, mass)
+        # new vertex k is old vertex perm[k]; indexing keeps explicit zeros (a product of
+        # permutation matrices would drop them)
+        expected_L, expected_M = L[perm][:, perm], M[perm][:, perm]
+        # the same pattern, exactly
+        for A, B in ((L2, expected_L), (M2, expected_M)):
+            B = sp.csr_array(B)
+            B.sort_indices()
+            np.testing.assert_array_equal(A.indptr, B.indptr)
+            np.testing.assert_array_equal(A.indices, B.indices)
+            # the same values up to the order of the sums (a few units in the last place)
+            scale = np.abs(B.data).max()
+            assert np.abs(A.data - B.data).max() <= 4e-16 * scale * 16
+    # per-element values follow the elements exactly (each is computed from its own corners)
+    W, W2 = tetlap.element_contributions(V, T, "dual"), tetlap.element_contributions(V2, T2, "dual")
+    np.testing.assert_array_equal(W2, W[order])
+
+
+def test_renumbering_only_the_vertices_changes_no_off_diagonal_bit():
+    """With the elements in the same order, every edge's sum runs in the same order (the
+    diagonal sums a row in column order, so it may differ in the last place)."""
+    V, T = tetlap.meshes.ball(1500, seed=4)
+    rng = np.random.default_rng(0)
+    perm = rng.permutation(len(V))
+    inverse = np.empty_like(perm)
+    inverse[perm] = np.arange(len(V))
+    L = tetlap.laplacian(V, T, "dual")
+    L2 = tetlap.laplacian(V[perm], inverse[T], "dual")
+    # row inverse[i] of L2 is row i of L, with its columns renumbered and re-sorted
+    for i in range(0, len(V), 37):
+        a = L[[i], :].tocoo()
+        b = L2[[inverse[i]], :].tocoo()
+        by_old = dict(zip(inverse[a.col], a.data))
+        by_new = dict(zip(b.col, b.data))
+        diagonal = inverse[i]
+        assert by_new.pop(diagonal) == pytest.approx(by_old.pop(diagonal), rel=1e-14)
+        assert by_new == by_old

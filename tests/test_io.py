@@ -169,7 +169,7 @@ def test_to_pyvista_data_copies_and_errors(cube):
     V, T = cube
     V0, T0 = V.copy(), T.copy()
     masses = tetlap.mass(V, T, "circumcentric").diagonal()
-    W = tetlap.tet_contributions(V, T, "dual")
+    W = tetlap.element_contributions(V, T, "dual")
     grid = tetlap.io.to_pyvista(V, T, point_data={"dual_mass": masses},
                                 cell_data={"min_weight": W.min(axis=1), "w": W})
     np.testing.assert_array_equal(grid.point_data["dual_mass"], masses)

@@ -136,12 +136,12 @@ def test_reference_matches_tetlap_forward():
     V, T = random_mesh(1, n=16)
     X = jnp.asarray(V[T])
     w = np.asarray(primal_weights(X))
-    assert rel(tetlap.tet_contributions(V, T, "primal"), w) < 1e-12
+    assert rel(tetlap.element_contributions(V, T, "primal"), w) < 1e-12
     wd, cells = dual(X, jnp.zeros((len(T), 4)))
-    assert rel(tetlap.tet_contributions(V, T, "dual"), wd) < 1e-12
+    assert rel(tetlap.element_contributions(V, T, "dual"), wd) < 1e-12
     omega = np.random.default_rng(0).uniform(0, 0.02, size=len(V))
     wd, cells = dual(X, jnp.asarray(omega[T]))
-    assert rel(tetlap.tet_contributions(V, T, "dual", weights=omega), wd) < 1e-11
+    assert rel(tetlap.element_contributions(V, T, "dual", weights=omega), wd) < 1e-11
     m = np.zeros(len(V))
     np.add.at(m, T, np.asarray(cells))
     assert rel(tetlap.mass(V, T, "circumcentric", weights=omega).diagonal(), m) < 1e-11
@@ -203,3 +203,5 @@ def test_adapter_grad_jit_and_bcoo():
     assert rel(gw, expected.dweights) < 1e-13
     with pytest.raises(tetlap.OptionError):
         tj.mass(V, T, "fem")
+    with pytest.raises(tetlap.ShapeError, match=r"shape \(n, d\)"):
+        tj.operators(V[0], T)

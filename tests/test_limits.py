@@ -44,7 +44,7 @@ def test_laplacian_sums_that_overflow_are_an_error_not_inf():
     with pytest.raises(tetlap.NonFiniteError, match="sum beyond"):
         tetlap.edge_weights(V * 1e308, T)
     # the per-tet values themselves are finite there: nothing is summed, nothing overflows
-    assert np.isfinite(tetlap.tet_contributions(V * 1e300, T)).all()
+    assert np.isfinite(tetlap.element_contributions(V * 1e300, T)).all()
 
 
 def test_an_update_that_would_overflow_leaves_the_mesh_unchanged():
@@ -106,8 +106,8 @@ def test_needles_keep_full_precision(h):
     """(0,0,0), (h,0,0), (0,h,0), (0,0,1): exact weights for every h (rational values)."""
     V = np.array([[0, 0, 0], [h, 0, 0], [0, h, 0], [0, 0, 1.0]])
     T = [[0, 1, 2, 3]]
-    dual = tetlap.tet_contributions(V, T, "dual")[0]
-    primal = tetlap.tet_contributions(V, T, "primal")[0]
+    dual = tetlap.element_contributions(V, T, "dual")[0]
+    primal = tetlap.element_contributions(V, T, "primal")[0]
     # the corner tet scaled by (h, h, 1): primal = dual-of-edge-01 style closed forms
     assert dual[0] == pytest.approx(0.25, rel=1e-12)
     assert dual[1] == pytest.approx(0.25, rel=1e-12)
@@ -124,9 +124,9 @@ def test_needles_keep_full_precision(h):
 @pytest.mark.parametrize("h", [1e-10, 1e-80, 1e-150])
 def test_needle_triangles_keep_full_precision(h):
     for V in ([[0, 0], [1, 0], [0, h]], [[0, 0, 0], [1, 0, 0], [0, 0, h]]):
-        W = tetlap.tet_contributions(V, [[0, 1, 2]], "primal")[0]
+        W = tetlap.element_contributions(V, [[0, 1, 2]], "primal")[0]
         assert W[0] == pytest.approx(h / 2, rel=1e-12) and W[1] == pytest.approx(1 / (2 * h), rel=1e-12)
-        np.testing.assert_allclose(tetlap.tet_contributions(V, [[0, 1, 2]], "dual")[0], W, rtol=1e-12)
+        np.testing.assert_allclose(tetlap.element_contributions(V, [[0, 1, 2]], "dual")[0], W, rtol=1e-12)
 
 
 def test_weights_far_beyond_the_squared_edges_are_computed_accurately():

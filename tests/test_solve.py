@@ -1,4 +1,5 @@
-"""Boundary-value and eigenvalue problems (paper Sec. 6, 8; Eq. 23-30)."""
+"""tetlap.solve: boundary-value and eigenvalue problems (paper Sec. 6, 8; Eq. 23-30), and
+the checks of what they take and what they return."""
 
 from __future__ import annotations
 
@@ -188,3 +189,104 @@ def test_eigs_refuses_a_non_positive_mass():
         solve.eigs(tetlap.laplacian(V, T, "dual"), M, 5, fixed)
     with pytest.raises(tetlap.OptionError):
         solve.eigs(tetlap.laplacian(V, T, "dual"), M, 0, fixed)
+
+
+# ---- what solve takes and returns: checked like the operators' inputs ------------------
+
+VC, TC = tetlap.meshes.cube(3, jitter=0.1, seed=1)
+LC = tetlap.laplacian(VC, TC, "dual")
+MC = tetlap.mass(VC, TC, "barycentric")
+BC = tetlap.diagnostics.boundary_vertices(TC, len(VC))
+NC = len(VC)
+
+
+def two_components():
+    V2 = np.vstack([VC, VC + 5])
+    T2 = np.vstack([TC, TC + NC])
+    fixed = np.zeros(2 * NC, dtype=bool)
+    fixed[:NC] = BC
+    return tetlap.laplacian(V2, T2), fixed
+
+
+@pytest.mark.parametrize("method", ["eliminate", "replace"])
+def test_a_component_without_a_fixed_vertex_is_named(method):
+    L2, fixed = two_components()
+    with pytest.raises(tetlap.SolveError, match=f"component of vertex {NC}"):
+        solve.dirichlet(L2, fixed, 1.0, rhs=np.ones(2 * NC), method=method)
+    with pytest.raises(tetlap.SolveError, match="no fixed vertex"):
+        solve.dirichlet(L2, fixed, 1.0, method=method)
+
+
+def test_a_singular_system_is_reported_with_its_residual():
+    # a Laplacian with a row of zeros inside a component: not solvable for rhs != 0 there
+    A = LC.tolil()
+    free = np.flatnonzero(~BC)
+    A[free[0], :] = 0
+    A[:, free[0]] = 0
+    A[free[0], free[1]] = 1e-300
+    with pytest.raises(tetlap.SolveError, match="residual|singular"):
+        solve.dirichlet(A.tocsr(), BC, 0.0, rhs=np.ones(NC))
+
+
+@pytest.mark.parametrize("bad, error", [
+    (lambda: solve.neumann(LC, np.r_[np.nan, np.zeros(NC - 1)]), tetlap.NonFiniteError),
+    (lambda: solve.neumann(LC, np.zeros(NC), rhs=np.r_[np.inf, np.zeros(NC - 1)]), tetlap.NonFiniteError),
+    (lambda: solve.neumann(LC, np.zeros(NC - 1)), tetlap.ShapeError),
+    (lambda: solve.neumann(LC, np.zeros(NC), gauge=NC), tetlap.IndexRangeError),
+    (lambda: solve.neumann(LC, np.zeros(NC), gauge=-1), tetlap.IndexRangeError),
+    (lambda: solve.neumann(LC, np.zeros(NC), gauge=2.5), tetlap.OptionError),
+    (lambda: solve.neumann(LC, np.zeros(NC), gauge="median"), tetlap.OptionError),
+    (lambda: solve.neumann(LC, np.ones(NC)), tetlap.CompatibilityError),
+    (lambda: solve.dirichlet(LC, BC, np.nan), tetlap.NonFiniteError),
+    (lambda: solve.dirichlet(LC, [0, NC], 1.0), tetlap.IndexRangeError),
+    (lambda: solve.dirichlet(LC, [-1], 1.0), tetlap.IndexRangeError),
+    (lambda: solve.dirichlet(LC, BC[:-1], 1.0), tetlap.ShapeError),
+    (lambda: solve.dirichlet(LC, BC, 1.0, method="lu"), tetlap.OptionError),
+    (lambda: solve.dirichlet(sp.eye_array(3) * np.nan, [0], 1.0), tetlap.NonFiniteError),
+    (lambda: solve.dirichlet("LC", [0], 1.0), TypeError),
+    (lambda: solve.dirichlet(sp.random_array((3, 4)), [0], 1.0), tetlap.ShapeError),
+    (lambda: solve.eigs(LC, MC, k=2.5, fixed=BC), tetlap.OptionError),
+    (lambda: solve.eigs(LC, MC, k=0, fixed=BC), tetlap.OptionError),
+    (lambda: solve.eigs(LC, MC, k=True, fixed=BC), tetlap.OptionError),
+    (lambda: solve.eigs(LC, MC[:5, :5], k=2, fixed=BC), tetlap.ShapeError),
+    (lambda: solve.eigs(LC, -MC, k=2, fixed=BC), tetlap.SolveError),
+    (lambda: solve.eigs(LC, MC, k=2, fixed=BC, sigma=np.nan), tetlap.OptionError),
+    (lambda: solve.dual_boundary_areas(VC, TC, [1.0, np.nan, 0]), tetlap.NonFiniteError),
+    (lambda: solve.dual_boundary_areas(VC, TC, lambda p, n: np.full(len(p), np.nan)), tetlap.NonFiniteError),
+    (lambda: solve.dual_boundary_areas(VC, TC), TypeError),
+    (lambda: solve.neumann_primal_kkt(LC, VC, TC, lambda p, n: n[:, 0], gauge=10**9), tetlap.IndexRangeError),
+    (lambda: solve.neumann_primal_kkt(LC[:-1, :-1], VC, TC, lambda p, n: n[:, 0]), tetlap.ShapeError),
+])
+def test_bad_input_gets_a_named_error(bad, error):
+    with pytest.raises(error):
+        bad()
+
+
+def test_inputs_are_not_modified():
+    L0, g = LC.copy(), np.zeros(NC)
+    fixed = BC.copy()
+    solve.dirichlet(LC, fixed, VC[:, 0])
+    solve.neumann(LC, g)
+    assert (LC != L0).nnz == 0 and np.array_equal(fixed, BC) and not g.any()
+
+
+def test_a_degenerate_boundary_face_is_an_error_not_nan():
+    V2 = VC.copy()
+    # squash one boundary face onto a line: move one of its vertices between the others
+    F = tetlap.diagnostics.boundary_faces(TC)
+    a, b, c = F[0]
+    V2[c] = (V2[a] + V2[b]) / 2
+    with pytest.raises(tetlap.TetlapError):
+        solve.dual_boundary_areas(V2, TC, [1.0, 0.0, 0.0])
+
+
+def test_good_problems_still_solve_exactly():
+    f = solve.dirichlet(LC, BC, VC[:, 0] - 2 * VC[:, 2])
+    np.testing.assert_allclose(f, VC[:, 0] - 2 * VC[:, 2], atol=1e-12)
+    f = solve.dirichlet(LC, BC, VC[:, 0] - 2 * VC[:, 2], method="replace")
+    np.testing.assert_allclose(f, VC[:, 0] - 2 * VC[:, 2], atol=1e-12)
+    g = solve.dual_boundary_areas(VC, TC, [1.0, 0.0, 0.0])
+    f = solve.neumann(LC, g)
+    np.testing.assert_allclose(f - f.mean(), VC[:, 0] - VC[:, 0].mean(), atol=1e-10)
+    lam, vecs = solve.eigs(LC, MC, 3, BC)
+    assert (lam > 0).all() and np.isfinite(vecs).all()

@@ -45,3 +45,5 @@ def test_gradcheck_with_weights():
     assert torch.autograd.gradcheck(f, (Vt, omega), eps=1e-6, atol=1e-8, rtol=1e-6)
     with pytest.raises(tetlap.OptionError):
         tt.mass(Vt, T, "fem")
+    with pytest.raises(tetlap.ShapeError, match=r"shape \(n, d\)"):
+        tt.operators(Vt[0], T)

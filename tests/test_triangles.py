@@ -47,9 +47,9 @@ def test_primal_and_dual_coincide(mesh):
     V, T = mesh
     P, D = tetlap.laplacian(V, T, "primal"), tetlap.laplacian(V, T, "dual")
     assert abs(P - D).max() <= 1e-12 * abs(P).max()
-    W = tetlap.tet_contributions(V, T, "dual")
+    W = tetlap.element_contributions(V, T, "dual")
     assert W.shape == (len(T), 3)
-    np.testing.assert_allclose(W, tetlap.tet_contributions(V, T, "primal"), atol=1e-12)
+    np.testing.assert_allclose(W, tetlap.element_contributions(V, T, "primal"), atol=1e-12)
 
 
 def test_invariants_and_masses(mesh):

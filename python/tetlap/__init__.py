@@ -30,11 +30,11 @@ __version__ = "0.1.0"
 #: is its module's own (``".io": ("io",)``) is a public submodule.
 _EXPORTS = {
     ".assembly": ("laplacian", "mass", "operators", "triplets", "edge_weights",
-                  "tet_contributions", "Triplets"),
+                  "element_contributions", "tet_contributions", "Triplets"),
     ".derivatives": ("vjp", "dirichlet_energy", "mass_energy", "VJP"),
     ".regular": ("regular_weights", "RegularWeights"),
     ".mesh": ("Mesh", "UpdateInfo"),
-    ".properties": ("check", "Report"),
+    ".analysis": ("check", "Report"),
     ".meshes": ("meshes",),
     ".diagnostics": ("diagnostics",),
     ".solve": ("solve",),
@@ -71,13 +71,13 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, imported eagerly
     from . import diagnostics, info, io, meshes, solve
     from ._core import MAX_THREADS
-    from .assembly import (Triplets, edge_weights, laplacian, mass, operators,
-                           tet_contributions, triplets)
+    from .analysis import Report, check
+    from .assembly import (Triplets, edge_weights, element_contributions, laplacian, mass,
+                           operators, tet_contributions, triplets)
     from .derivatives import VJP, dirichlet_energy, mass_energy, vjp
     from .errors import (CompatibilityError, DegenerateElementError, DtypeError,
                          EmptyMeshError, IndexRangeError, InternalError, MeshFileError,
                          NonFiniteError, OptionError, RepeatedVertexError, ShapeError,
                          SolveError, TetlapError)
     from .mesh import Mesh, UpdateInfo
-    from .properties import Report, check
     from .regular import RegularWeights, regular_weights

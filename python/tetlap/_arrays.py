@@ -6,10 +6,11 @@ parses them into its own types and raises :class:`tetlap.OptionError` itself.
 
 from __future__ import annotations
 
-import numpy as np
-
+import functools
+import inspect
 import numbers
 
+import numpy as np
 import scipy.sparse as sp
 
 from . import _meshobj
@@ -51,6 +52,39 @@ def mesh(V, T):
     return V, T
 
 
+def takes_mesh_object(f):
+    """Decorator for a function of ``(..., V, T, after, ...)``: one mesh object in place of
+    ``V`` is followed directly by the arguments after ``T``, as users write it
+    (``laplacian(mesh, "dual")``, ``check(L, mesh, M)``, ``dirichlet_energy(mesh, f)``);
+    :func:`mesh` then reads the object. With a mesh object, an array in the place of ``T``
+    where an option (a name or a number) or nothing positional follows is a ``TypeError``:
+    the object carries its own cells."""
+    params = list(inspect.signature(f).parameters.values())
+    at = [p.name for p in params].index("T")
+    after = params[at + 1] if at + 1 < len(params) else None
+    positional = after is not None and after.kind is inspect.Parameter.POSITIONAL_OR_KEYWORD
+    option = positional and isinstance(after.default, (str, numbers.Number))
+    name = f.__qualname__.removesuffix(".__init__")
+
+    @functools.wraps(f)
+    def wrapper(*args, **kwargs):
+        V = args[at - 1] if len(args) >= at else kwargs.get("V")
+        if _meshobj.is_mesh_object(V):
+            if kwargs.get("T") is not None:
+                raise TypeError(f"{name}: a mesh object carries its cells; pass T only "
+                                "with a V array")
+            if len(args) > at and args[at] is not None:
+                if not positional or (option and isinstance(args[at], (np.ndarray, list, tuple))):
+                    raise TypeError(f"{name}: a mesh object carries its cells; pass it "
+                                    "alone, or V and T arrays")
+                args = args[:at] + (None,) + args[at:]
+            elif len(args) <= at:
+                kwargs.setdefault("T", None)
+        return f(*args, **kwargs)
+
+    return wrapper
+
+
 def points(V) -> np.ndarray:
     """``V`` as a C-contiguous ``(n, d)`` float64 array (a copy unless it already is one)."""
     arr = _as_array(V, "V")
@@ -87,6 +121,29 @@ def elements(T, n_columns=(3, 4)) -> np.ndarray:
             element=element, index=bad,
         )
     return np.ascontiguousarray(arr, dtype=np.int64)
+
+
+def in_range(A: np.ndarray, n: int, row: str) -> None:
+    """IndexRangeError naming the first row of the integer array ``A`` (``row`` says what
+    a row is: "element", "edge") with an entry outside ``0..n-1``."""
+    bad = (A < 0) | (A >= n)
+    if bad.any():
+        first = int(np.flatnonzero(bad.any(axis=1))[0])
+        index = int(A[first][bad[first]][0])
+        raise IndexRangeError(f"{row} {first} refers to vertex {index}, but there are {n} "
+                              "vertices", element=first, index=index)
+
+
+def edges(E, n: int, name: str = "edges") -> np.ndarray:
+    """``E`` as a new ``(E, 2)`` int64 array of vertex indices in ``0..n-1``."""
+    arr = _as_array(E, name)
+    if arr.dtype.kind not in "iu":
+        raise DtypeError(f"{name} must hold integer vertex indices, got dtype {arr.dtype}")
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise ShapeError(f"{name} must have shape (E, 2), got {arr.shape}")
+    arr = arr.astype(np.int64)
+    in_range(arr, n, "edge")
+    return arr
 
 
 def vertex_weights(w, n: int) -> np.ndarray | None:

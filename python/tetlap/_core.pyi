@@ -73,8 +73,8 @@ def non_delaunay(points: _F64, cells: _Cells, interior: _I64, rtol: float, *,
 def check_operator(points: _F64, cells: _Cells, l: _CsrInput, boundary: npt.NDArray[np.bool_],
                    negative_tol: float, *, options: _Options = None
                    ) -> dict[str, bool | int | float | None]: ...
-def negative_semidefinite(n: int, l: _CsrInput, tol: float, *, options: _Options = None
+def negative_semidefinite(n: int, l: _CsrInput, tol: _F64, *, options: _Options = None
                           ) -> tuple[bool | None, str, dict[str, int | float]]: ...
-def element_certificate(cells: _Cells, n: int, weights: _F64, tol: float, *,
+def element_certificate(cells: _Cells, n: int, weights: _F64, tol: _F64, *,
                         options: _Options = None
                         ) -> tuple[Literal[True] | None, str, dict[str, int | float]]: ...

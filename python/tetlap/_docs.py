@@ -21,7 +21,8 @@ T : (m, 4) or (m, 3) array-like of integers, optional
     do not depend on the orientation or vertex order of an element). Leave it out to pass
     one mesh object as ``V`` instead: a ``meshio.Mesh``, a ``pyvista.UnstructuredGrid`` or
     anything with ``points`` and tetra or triangle cells (see
-    :func:`tetlap.io.from_mesh`); options then go by keyword.""",
+    :func:`tetlap.io.from_mesh`), followed by the arguments after ``T``
+    (``laplacian(mesh, "dual")``).""",
     "kind": """\
 kind : {"primal", "dual"} or float, default "primal"
     ``"primal"``: P1 FEM / cotan weights (paper Eq. 7), always negative semidefinite.

@@ -21,6 +21,7 @@ __all__ = [
     "operators",
     "triplets",
     "edge_weights",
+    "element_contributions",
     "tet_contributions",
     "Triplets",
 ]
@@ -31,13 +32,18 @@ def _options(boundary, degenerate, threads) -> dict:
     return {"boundary": boundary, "degenerate": degenerate, "threads": threads}
 
 
-def _inputs(V, T, weights):
+def _assemble(what: tuple, V, T, weights, boundary, degenerate, threads):
+    """``(the core's result for what, n)``: the one path of every function here from the
+    user's arguments to :func:`tetlap._core.assemble`."""
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T)
-    return V, T, _arrays.vertex_weights(weights, V.shape[0])
+    w = _arrays.vertex_weights(weights, V.shape[0])
+    options = _options(boundary, degenerate, threads)
+    return _core.assemble(V, T, what, weights=w, options=options), V.shape[0]
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def laplacian(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
               degenerate="raise", threads=None) -> sp.csr_array:
@@ -68,12 +74,11 @@ def laplacian(V, T=None, kind="primal", *, boundary="circumcentric", weights=Non
     >>> L[[0], :].toarray().round(4)
     array([[-0.75,  0.25,  0.25,  0.25]])
     """
-    V, T, w = _inputs(V, T, weights)
-    arrays = _core.assemble(V, T, ("laplacian", kind), weights=w,
-                            options=_options(boundary, degenerate, threads))
-    return _sparse.csr(arrays, V.shape[0])
+    arrays, n = _assemble(("laplacian", kind), V, T, weights, boundary, degenerate, threads)
+    return _sparse.csr(arrays, n)
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def mass(V, T=None, kind="barycentric", *, boundary="circumcentric", weights=None,
          degenerate="raise", threads=None) -> sp.csr_array:
@@ -101,12 +106,11 @@ def mass(V, T=None, kind="barycentric", *, boundary="circumcentric", weights=Non
     >>> tetlap.mass(V, [[0, 1, 2, 3]], kind="circumcentric").diagonal() * 72
     array([9., 1., 1., 1.])
     """
-    V, T, w = _inputs(V, T, weights)
-    result = _core.assemble(V, T, ("mass", kind), weights=w,
-                            options=_options(boundary, degenerate, threads))
-    return _sparse.mass(result, V.shape[0])
+    result, n = _assemble(("mass", kind), V, T, weights, boundary, degenerate, threads)
+    return _sparse.mass(result, n)
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def operators(V, T=None, laplacian="primal", mass="barycentric", *, boundary="circumcentric",
               weights=None, degenerate="raise",
@@ -139,10 +143,8 @@ def operators(V, T=None, laplacian="primal", mass="barycentric", *, boundary="ci
     >>> round(float(M.sum()), 12)
     1.0
     """
-    V, T, w = _inputs(V, T, weights)
-    L, M = _core.assemble(V, T, ("operators", laplacian, mass), weights=w,
-                          options=_options(boundary, degenerate, threads))
-    n = V.shape[0]
+    (L, M), n = _assemble(("operators", laplacian, mass), V, T, weights, boundary, degenerate,
+                          threads)
     return _sparse.csr(L, n), _sparse.mass(M, n)
 
 
@@ -156,6 +158,7 @@ class Triplets(NamedTuple):
     shape: tuple[int, int]
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def triplets(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
              degenerate="raise", threads=None) -> Triplets:
@@ -186,13 +189,12 @@ def triplets(V, T=None, kind="primal", *, boundary="circumcentric", weights=None
     >>> bool(abs(L - tetlap.laplacian(V, T)).max() < 1e-12)
     True
     """
-    V, T, w = _inputs(V, T, weights)
-    rows, cols, vals = _core.assemble(V, T, ("triplets", kind), weights=w,
-                                      options=_options(boundary, degenerate, threads))
-    n = V.shape[0]
+    (rows, cols, vals), n = _assemble(("triplets", kind), V, T, weights, boundary, degenerate,
+                                      threads)
     return Triplets(rows, cols, vals, (n, n))
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def edge_weights(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
                  degenerate="raise", threads=None) -> tuple[np.ndarray, np.ndarray]:
@@ -221,15 +223,16 @@ def edge_weights(V, T=None, kind="primal", *, boundary="circumcentric", weights=
     >>> edges[0].tolist(), float(w[0])
     ([0, 1], 0.25)
     """
-    V, T, w = _inputs(V, T, weights)
-    return _core.assemble(V, T, ("edge_weights", kind), weights=w,
-                          options=_options(boundary, degenerate, threads))
+    return _assemble(("edge_weights", kind), V, T, weights, boundary, degenerate, threads)[0]
 
 
+@_arrays.takes_mesh_object
 @shared_docs
-def tet_contributions(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
-                      degenerate="raise", threads=None) -> np.ndarray:
-    """Per-element edge weights (each element's contribution to ``L``).
+def element_contributions(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
+                          degenerate="raise", threads=None) -> np.ndarray:
+    """Per-element edge weights (each element's contribution to ``L``), for tets and
+    triangles. ``tet_contributions`` is this function under its name until 0.1, kept for
+    one release.
 
     Parameters
     ----------
@@ -250,9 +253,12 @@ def tet_contributions(V, T=None, kind="primal", *, boundary="circumcentric", wei
     --------
     >>> import tetlap
     >>> V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
-    >>> (tetlap.tet_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12) + 0.0  # no -0.
+    >>> (tetlap.element_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12) + 0.0  # no -0.
     array([[1., 1., 1., 0., 0., 0.]])
     """
-    V, T, w = _inputs(V, T, weights)
-    return _core.assemble(V, T, ("contributions", kind), weights=w,
-                          options=_options(boundary, degenerate, threads))
+    return _assemble(("contributions", kind), V, T, weights, boundary, degenerate, threads)[0]
+
+
+#: The name of :func:`element_contributions` until 0.1 (it returns triangles' weights too),
+#: kept for one release.
+tet_contributions = element_contributions

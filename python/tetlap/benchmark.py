@@ -30,7 +30,7 @@ from . import assembly, meshes
 from ._progress import bar
 from .info import report
 from .mesh import Mesh
-from .properties import check
+from .analysis import check
 
 # Kuhn grids: 6 k^3 tets.
 SIZES = {"10k": 12, "100k": 26, "1M": 55, "4M": 87}

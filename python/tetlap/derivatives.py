@@ -69,17 +69,10 @@ def _csr(A, n: int, name: str):
 
 def _edge_csr(edges, dw, n: int):
     """An upper-triangular cotangent from per-edge cotangents ``dw`` on ``edges``."""
-    edges = _arrays._as_array(edges, "the edges of dL")
-    if edges.dtype.kind not in "iu":
-        raise DtypeError(f"the edges of dL must be integers, got dtype {edges.dtype}")
-    if edges.ndim != 2 or edges.shape[1] != 2:
-        raise ShapeError(f"the edges of dL must have shape (E, 2), got {edges.shape}")
+    edges = _arrays.edges(edges, n, "the edges of dL")
     dw = _real(dw, "the edge cotangent dw")
     if dw.shape != (len(edges),):
         raise ShapeError(f"dw must have shape ({len(edges)},), one per edge, got {dw.shape}")
-    if len(edges) and (edges.min() < 0 or edges.max() >= n):
-        raise ShapeError(f"the edges of dL must hold vertex indices in 0..{n - 1}")
-    edges = edges.astype(np.int64)
     i, j = edges.min(axis=1), edges.max(axis=1)
     if np.any(i == j):
         raise ShapeError("the edges of dL must join two distinct vertices")
@@ -115,11 +108,13 @@ def _mass_cotangent(dM, n: int):
 
 
 def _mesh(V, T, weights):
+    V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
     return V, T, _arrays.vertex_weights(weights, V.shape[0])
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
         boundary="circumcentric", weights=None, degenerate="raise", threads=None) -> VJP:
@@ -146,8 +141,8 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
         * a pair ``(edges, dw)``, ``edges`` (E, 2) integers and ``dw`` (E,) reals: on the
           summed edge weights ``w_ij`` as :func:`tetlap.edge_weights` returns them (any
           subset of edges, in any order; repeated edges add up);
-        * an (m, 6) array: on each tet's own weights, as :func:`tetlap.tet_contributions`
-          returns them.
+        * an (m, 6) array: on each tet's own weights, as
+          :func:`tetlap.element_contributions` returns them.
     dM : optional
         The cotangent on ``M``: a SciPy sparse (n, n) matrix (on its entries; only the
         diagonal counts for the lumped kinds) or an (n,) array (on its diagonal).
@@ -219,6 +214,7 @@ def _energy(V, T, f, lap, mass, weights, boundary, degenerate, threads, return_w
     return float(value), dV
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def dirichlet_energy(V, T, f, kind="primal", *, boundary="circumcentric", weights=None,
                      degenerate="raise", threads=None, return_weights_gradient=False):
@@ -277,6 +273,7 @@ def dirichlet_energy(V, T, f, kind="primal", *, boundary="circumcentric", weight
                    return_weights_gradient)
 
 
+@_arrays.takes_mesh_object
 @shared_docs
 def mass_energy(V, T, f, kind="barycentric", *, boundary="circumcentric", weights=None,
                 degenerate="raise", threads=None, return_weights_gradient=False):

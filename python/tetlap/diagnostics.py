@@ -165,40 +165,47 @@ def _quality(V, T=None):
     return _core.quality(*_geometry(V, T))
 
 
+@_arrays.takes_mesh_object
 def signed_volumes(V, T=None) -> np.ndarray:
     """Signed volume per tet, (m,) float64: ``det[x1-x0, x2-x0, x3-x0] / 6``; positive means
     the VTK/gmsh/Medit orientation. For immersed meshes (d > 3) the unsigned volume."""
     return _quality(V, T)[0]
 
 
+@_arrays.takes_mesh_object
 def orientation(V, T=None) -> np.ndarray:
     """Sign of ``det[x1-x0, x2-x0, x3-x0]`` per tet, (m,) int8: +1, -1 or 0 (flat)."""
     return np.sign(signed_volumes(V, T)).astype(np.int8)
 
 
+@_arrays.takes_mesh_object
 def degenerate_tets(V, T=None, rtol: float = 1e-12) -> np.ndarray:
     """Boolean (m,): tets with ``|Vol| <= rtol * mean|Vol|`` (exactly flat ones included)."""
     vol = np.abs(signed_volumes(V, T))
     return vol <= rtol * vol.mean()
 
 
+@_arrays.takes_mesh_object
 def dihedral_angles(V, T=None) -> np.ndarray:
     """The six dihedral angles of every tet in degrees, (m, 6) float64, at the local edges
     ``(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)``. NaN for flat tets."""
     return _quality(V, T)[1]
 
 
+@_arrays.takes_mesh_object
 def min_dihedral_angles(V, T=None) -> np.ndarray:
     """Smallest dihedral angle of every tet in degrees, (m,) (NaN for flat tets)."""
     return dihedral_angles(V, T).min(axis=1)
 
 
+@_arrays.takes_mesh_object
 def well_centered(V, T=None) -> np.ndarray:
     """Boolean (m,): the tet's circumcenter is strictly inside it and every face's
     circumcenter strictly inside that face (all face angles acute)."""
     return _quality(V, T)[2]
 
 
+@_arrays.takes_mesh_object
 def non_delaunay_faces(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     """Boolean per interior face (order of :func:`interior_faces`): the opposite vertex of
     the second tet lies strictly inside the circumsphere of the first (up to ``rtol``
@@ -209,6 +216,7 @@ def non_delaunay_faces(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     return _core.non_delaunay(V, T, interior, float(rtol))
 
 
+@_arrays.takes_mesh_object
 def non_delaunay_tets(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     """Boolean (m,): tets with a face whose neighbour's opposite vertex is inside their
     circumsphere (either side of the face counts)."""
@@ -227,6 +235,7 @@ def face_normals(V, F) -> np.ndarray:
     return np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]) / 2
 
 
+@_arrays.takes_mesh_object
 def summary(V, T=None, rtol: float = DELAUNAY_RTOL) -> dict:
     """Counts and extremes of every diagnostic at once (one pass of each core routine), as
     a JSON-ready dict: vertices (on the boundary, unreferenced), tets (positive, negative,

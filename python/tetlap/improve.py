@@ -61,7 +61,7 @@ import numpy as np
 from . import _arrays, _options, assembly, derivatives, diagnostics
 from ._float_range import check_float_range, unit_scale
 from .errors import ShapeError
-from .properties import negative_weights
+from .analysis import negative_weights
 
 __all__ = ["improve", "Improvement", "Objective", "keep_orientation",
            "fewest_negative_weights", "dual_statistics"]

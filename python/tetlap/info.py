@@ -30,7 +30,7 @@ from . import _arrays, _options, assembly, diagnostics
 from ._float_range import check_float_range, unit_scale
 from ._progress import Stages
 from .errors import ShapeError, TetlapError
-from .properties import NEGATIVE_TOL, _check, check
+from .analysis import NEGATIVE_TOL, _check, check
 from .regular import RegularWeights, regular_weights
 
 __all__ = ["report", "regular_summary", "plot", "PAIRS", "SCHEMA_VERSION",

@@ -23,6 +23,7 @@ True
 from __future__ import annotations
 
 import contextlib
+import importlib
 import io as _stdio
 import os
 import sys
@@ -31,25 +32,25 @@ import numpy as np
 
 from . import _arrays
 from ._meshobj import is_mesh_object, to_arrays
-from .errors import DtypeError, IndexRangeError, MeshFileError, ShapeError
+from .errors import MeshFileError, ShapeError
 
 __all__ = ["read", "from_mesh", "write", "to_meshio", "to_pyvista", "edges_to_pyvista"]
 
 
-def _meshio():
+def _optional(module: str, extra: str, what: str):
+    """The optional ``module``, or an ImportError naming the extra that installs it."""
     try:
-        import meshio
+        return importlib.import_module(module)
     except ImportError:  # pragma: no cover - exercised only without the extra
-        raise ImportError("mesh files need meshio: pip install 'tetlap[io]'") from None
-    return meshio
+        raise ImportError(f"{what} need {module}: pip install 'tetlap[{extra}]'") from None
+
+
+def _meshio():
+    return _optional("meshio", "io", "mesh files")
 
 
 def _pyvista():
-    try:
-        import pyvista
-    except ImportError:  # pragma: no cover - exercised only without the extra
-        raise ImportError("to_pyvista needs pyvista: pip install 'tetlap[pyvista]'") from None
-    return pyvista
+    return _optional("pyvista", "pyvista", "pyvista grids")
 
 
 def from_mesh(obj, cell_type=None):
@@ -104,12 +105,7 @@ def from_mesh(obj, cell_type=None):
     ((27, 3), (48, 4), 'int64')
     >>> L = tetlap.laplacian(*tetlap.io.from_mesh(mesh), kind="dual")
 
-    A pyvista grid (here made by :func:`to_pyvista`) goes the same way:
-
-    >>> grid = tetlap.io.to_pyvista(V, T)
-    >>> V3, T3 = tetlap.io.from_mesh(grid)
-    >>> bool((T3 == T).all())
-    True
+    A pyvista grid goes the same way (see :func:`to_pyvista`).
     """
     return to_arrays(obj, cell_type, stacklevel=2)
 
@@ -189,15 +185,6 @@ def read(path, cell_type=None):
     return to_arrays(mesh, cell_type, source=path, stacklevel=2)
 
 
-def _check_range(T, n: int, what: str) -> None:
-    bad = (T < 0) | (T >= n)
-    if bad.any():
-        row = int(np.flatnonzero(bad.any(axis=1))[0])
-        index = int(T[row][bad[row]][0])
-        raise IndexRangeError(f"{what} {row} refers to vertex {index}, but there are {n} "
-                              "vertices", element=row, index=index)
-
-
 def _points3d(V: np.ndarray) -> np.ndarray:
     if V.shape[1] == 2:
         return np.column_stack([V, np.zeros(len(V))])
@@ -213,7 +200,7 @@ def _checked(V, T, point_data, cell_data):
     V = np.array(_arrays.points(V), copy=True)
     T = np.array(_arrays.elements(T), copy=True)
     n, m = len(V), len(T)
-    _check_range(T, n, "element")
+    _arrays.in_range(T, n, "element")
     data = []
     for what, rows, given in (("point_data", n, point_data), ("cell_data", m, cell_data)):
         arrays = {}
@@ -292,7 +279,7 @@ def write(path, V, T, *, cell_data=None, point_data=None) -> None:
     --------
     >>> import tetlap, tetlap.io
     >>> V, T = tetlap.meshes.ball(1000)
-    >>> W = tetlap.tet_contributions(V, T, "dual")
+    >>> W = tetlap.element_contributions(V, T, "dual")
     >>> tetlap.io.write("ball.vtu", V, T, cell_data={"min_weight": W.min(axis=1)})  # doctest: +SKIP
     """
     mesh = to_meshio(V, T, point_data=point_data, cell_data=cell_data)
@@ -343,6 +330,12 @@ def to_pyvista(V, T, point_data=None, cell_data=None):
     >>> grid.n_cells == len(T), bool(abs(grid["dual_mass"].sum() - 1.0) < 1e-12)
     (True, True)
     >>> grid.plot(scalars="dual_mass")  # doctest: +SKIP
+
+    And back, as any mesh object (:func:`from_mesh`):
+
+    >>> V2, T2 = tetlap.io.from_mesh(grid)
+    >>> bool((V2 == V).all() and (T2 == T).all())
+    True
     """
     pv = _pyvista()
     V, T, points, cells = _checked(V, T, point_data, cell_data)
@@ -388,13 +381,7 @@ def edges_to_pyvista(V, edges, values=None, name="value"):
     """
     pv = _pyvista()
     V = _points3d(np.array(_arrays.points(V), copy=True))
-    E = _arrays._as_array(edges, "edges")
-    if E.dtype.kind not in "iu":
-        raise DtypeError(f"edges must hold integer vertex indices, got dtype {E.dtype}")
-    if E.ndim != 2 or E.shape[1] != 2:
-        raise ShapeError(f"edges must have shape (E, 2), got {E.shape}")
-    E = E.astype(np.int64)
-    _check_range(E, len(V), "edge")
+    E = _arrays.edges(edges, len(V))
     poly = pv.PolyData(V, lines=np.column_stack([np.full(len(E), 2), E]).ravel())
     if values is not None:
         a = np.array(values, copy=True)

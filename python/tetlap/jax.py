@@ -33,8 +33,7 @@ try:
 except ImportError as e:  # pragma: no cover - exercised only without the extra
     raise ImportError("tetlap.jax needs jax: pip install 'tetlap[jax]'") from e
 
-from . import _adapters, _arrays, diagnostics
-from .errors import OptionError
+from . import _adapters
 
 __all__ = ["edges", "operators", "edge_weights", "mass", "laplacian"]
 
@@ -42,30 +41,27 @@ __all__ = ["edges", "operators", "edge_weights", "mass", "laplacian"]
 def edges(T) -> np.ndarray:
     """The unique edges ``(E, 2)`` int64, ``i < j``, sorted: the order of the weights of
     :func:`operators` and :func:`edge_weights` (that of :func:`tetlap.edge_weights`)."""
-    return diagnostics.mesh_edges(_arrays.elements(T, 4))
+    return _adapters.edges(T)
 
 
-def _function(T, kind, mass_kind, weighted, opts):
+def _f64(x) -> np.ndarray:
+    return np.asarray(x, dtype=np.float64)
+
+
+def _function(spec: _adapters.Spec):
     """The custom_vjp function ``(V, omega) -> (w, m)`` of one mesh and option set."""
-    _adapters.check_mass(mass_kind)
-    T = _arrays.elements(T, 4)
-    edges_ = diagnostics.mesh_edges(T)
-    n_edges = len(edges_)
 
     def host_forward(V, omega):
-        V64 = np.asarray(V, dtype=np.float64)
-        w = np.asarray(omega, dtype=np.float64) if weighted else None
-        we, m = _adapters.forward(V64, T, kind, mass_kind, w, n_edges, opts)
+        we, m = _adapters.forward(spec, _f64(V), _f64(omega) if spec.weighted else None)
         return we.astype(V.dtype), m.astype(V.dtype)
 
     def host_backward(V, omega, dw, dm):
-        f64 = lambda x: np.asarray(x, dtype=np.float64)  # noqa: E731
-        dV, dom = _adapters.backward(f64(V), T, edges_, kind, mass_kind,
-                                     f64(omega) if weighted else None, f64(dw), f64(dm), opts)
+        dV, dom = _adapters.backward(spec, _f64(V), _f64(omega) if spec.weighted else None,
+                                     _f64(dw), _f64(dm))
         return dV.astype(np.asarray(V).dtype), dom.astype(np.asarray(omega).dtype)
 
     def shapes(V):
-        return (jax.ShapeDtypeStruct((n_edges,), V.dtype),
+        return (jax.ShapeDtypeStruct((len(spec.edges),), V.dtype),
                 jax.ShapeDtypeStruct((V.shape[0],), V.dtype))
 
     @jax.custom_vjp
@@ -88,12 +84,12 @@ def _function(T, kind, mass_kind, weighted, opts):
 
 def _call(V, T, kind, mass_kind, weights, boundary, degenerate, threads):
     V = jnp.asarray(V)
-    if V.ndim != 2:
-        raise OptionError(f"V must have shape (n, d), got {V.shape}")
-    weighted = weights is not None
-    omega = jnp.asarray(weights, dtype=V.dtype) if weighted else jnp.zeros(V.shape[0], V.dtype)
-    opts = {"boundary": boundary, "degenerate": degenerate, "threads": threads}
-    return _function(T, kind, mass_kind, weighted, opts)(V, omega)
+    _adapters.check_points(V.shape)
+    spec = _adapters.spec(T, kind, mass_kind, weights is not None, boundary, degenerate,
+                          threads)
+    omega = (jnp.asarray(weights, dtype=V.dtype) if spec.weighted
+             else jnp.zeros(V.shape[0], V.dtype))
+    return _function(spec)(V, omega)
 
 
 def operators(V, T, kind="primal", mass="barycentric", *, weights=None,
@@ -149,7 +145,5 @@ def laplacian(V, T, kind="primal", *, weights=None, boundary="circumcentric",
     w = edge_weights(V, T, kind, weights=weights, boundary=boundary, degenerate=degenerate,
                      threads=threads)
     diag = -(jax.ops.segment_sum(w, E[:, 0], n) + jax.ops.segment_sum(w, E[:, 1], n))
-    data = jnp.concatenate([w, w, diag])
-    ii = np.arange(n)
-    idx = np.concatenate([E, E[:, ::-1], np.column_stack([ii, ii])])
-    return jsparse.BCOO((data, jnp.asarray(idx)), shape=(n, n))
+    entries = _adapters.laplacian_entries(E, n)
+    return jsparse.BCOO((jnp.concatenate([w, w, diag]), jnp.asarray(entries)), shape=(n, n))

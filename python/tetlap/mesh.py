@@ -63,6 +63,7 @@ class Mesh:
     0
     """
 
+    @_arrays.takes_mesh_object
     def __init__(self, V, T=None, *, boundary="circumcentric", weights=None,
                  degenerate="raise", threads=None) -> None:
         V, T = _arrays.mesh(V, T)

@@ -312,7 +312,7 @@ def _unit_normals(V, F, tets) -> np.ndarray:
 def _geometry(V, T, normal_derivative):
     """``(V, T)`` arrays (or those of one mesh object passed as ``V``), checked."""
     if normal_derivative is None:
-        raise TypeError("normal_derivative is missing (pass it by keyword with a mesh object)")
+        raise TypeError("normal_derivative is missing: a constant gradient (3,) or a callable")
     V, T = _arrays.mesh(V, T)
     return _arrays.points(V), _arrays.elements(T, 4)
 
@@ -354,6 +354,7 @@ def _flux(V, T, normal_derivative, which: int) -> np.ndarray:
     return np.bincount(bf.ravel(), weights=(area * values).ravel(), minlength=n)
 
 
+@_arrays.takes_mesh_object
 def dual_boundary_areas(V, T=None, normal_derivative=None) -> np.ndarray:
     """Integrated normal flux ``g`` per vertex for the dual Neumann problem ``L f = -g``.
 
@@ -365,6 +366,7 @@ def dual_boundary_areas(V, T=None, normal_derivative=None) -> np.ndarray:
     return _flux(V, T, normal_derivative, 0)
 
 
+@_arrays.takes_mesh_object
 def fem_boundary_areas(V, T=None, normal_derivative=None) -> np.ndarray:
     """The P1 boundary load ``g_i = int_boundary (n . grad u) phi_i``: the natural Neumann
     condition of the primal (each face's flux shared equally by its corners)."""

@@ -28,8 +28,7 @@ try:
 except ImportError as e:  # pragma: no cover - exercised only without the extra
     raise ImportError("tetlap.torch needs torch: pip install 'tetlap[torch]'") from e
 
-from . import _adapters, _arrays, diagnostics
-from .errors import OptionError
+from . import _adapters
 
 __all__ = ["edges", "operators", "edge_weights", "mass", "laplacian"]
 
@@ -37,7 +36,7 @@ __all__ = ["edges", "operators", "edge_weights", "mass", "laplacian"]
 def edges(T) -> np.ndarray:
     """The unique edges ``(E, 2)`` int64, ``i < j``, sorted: the order of the weights of
     :func:`operators` (that of :func:`tetlap.edge_weights`)."""
-    return diagnostics.mesh_edges(_arrays.elements(T, 4))
+    return _adapters.edges(T)
 
 
 def _numpy(x: torch.Tensor) -> np.ndarray:
@@ -45,13 +44,11 @@ def _numpy(x: torch.Tensor) -> np.ndarray:
 
 
 class _Operators(torch.autograd.Function):
-    """``(V, omega) -> (w, m)`` for a fixed mesh and options (in ``spec``)."""
+    """``(V, omega) -> (w, m)`` for a fixed mesh and options (an :class:`_adapters.Spec`)."""
 
     @staticmethod
     def forward(ctx, V, omega, spec):
-        T, edges_, kind, mass_kind, weighted, opts = spec
-        we, m = _adapters.forward(_numpy(V), T, kind, mass_kind,
-                                  _numpy(omega) if weighted else None, len(edges_), opts)
+        we, m = _adapters.forward(spec, _numpy(V), _numpy(omega) if spec.weighted else None)
         ctx.save_for_backward(V, omega)
         ctx.spec = spec
         as_out = {"dtype": V.dtype, "device": V.device}
@@ -60,26 +57,21 @@ class _Operators(torch.autograd.Function):
     @staticmethod
     def backward(ctx, dw, dm):
         V, omega = ctx.saved_tensors
-        T, edges_, kind, mass_kind, weighted, opts = ctx.spec
-        dV, dom = _adapters.backward(_numpy(V), T, edges_, kind, mass_kind,
-                                     _numpy(omega) if weighted else None,
-                                     _numpy(dw), _numpy(dm), opts)
+        spec = ctx.spec
+        dV, dom = _adapters.backward(spec, _numpy(V), _numpy(omega) if spec.weighted else None,
+                                     _numpy(dw), _numpy(dm))
         dV = torch.as_tensor(dV, dtype=V.dtype, device=V.device)
         domega = torch.as_tensor(dom, dtype=omega.dtype, device=omega.device)
-        return dV, (domega if weighted else None), None
+        return dV, (domega if spec.weighted else None), None
 
 
 def _call(V, T, kind, mass_kind, weights, boundary, degenerate, threads):
-    _adapters.check_mass(mass_kind)
     V = torch.as_tensor(V)
-    if V.ndim != 2:
-        raise OptionError(f"V must have shape (n, d), got {tuple(V.shape)}")
-    weighted = weights is not None
-    omega = (torch.as_tensor(weights, dtype=V.dtype, device=V.device) if weighted
+    _adapters.check_points(V.shape)
+    spec = _adapters.spec(T, kind, mass_kind, weights is not None, boundary, degenerate,
+                          threads)
+    omega = (torch.as_tensor(weights, dtype=V.dtype, device=V.device) if spec.weighted
              else torch.zeros(V.shape[0], dtype=V.dtype, device=V.device))
-    opts = {"boundary": boundary, "degenerate": degenerate, "threads": threads}
-    T = _arrays.elements(T, 4)
-    spec = (T, diagnostics.mesh_edges(T), kind, mass_kind, weighted, opts)
     return _Operators.apply(V, omega, spec)
 
 
@@ -109,11 +101,12 @@ def laplacian(V, T, kind="primal", *, weights=None, boundary="circumcentric",
     ``L[i, j] = w_ij``, ``L[i, i] = -sum_j w_ij`` (paper Eq. 1)."""
     V = torch.as_tensor(V)
     n = V.shape[0]
-    E = torch.as_tensor(edges(T))
+    E_host = edges(T)
+    E = torch.as_tensor(E_host)
     w = edge_weights(V, T, kind, weights=weights, boundary=boundary, degenerate=degenerate,
                      threads=threads)
     diag = -(torch.zeros(n, dtype=w.dtype).index_add(0, E[:, 0], w).index_add(0, E[:, 1], w))
-    ii = torch.arange(n)
-    idx = torch.cat([E.T, E.flip(1).T, torch.stack([ii, ii])], dim=1)
+    entries = torch.as_tensor(np.ascontiguousarray(_adapters.laplacian_entries(E_host, n).T))
     # the indices come from validated tets: in range by construction
-    return torch.sparse_coo_tensor(idx, torch.cat([w, w, diag]), (n, n), check_invariants=False)
+    return torch.sparse_coo_tensor(entries, torch.cat([w, w, diag]), (n, n),
+                                   check_invariants=False)

@@ -156,16 +156,16 @@ fn csr(rows: &[&[f64]]) -> Csr {
 fn semidefiniteness_certificates_and_witnesses() {
     // non-negative weights: a graph Laplacian
     let path = csr(&[&[-1.0, 1.0, 0.0], &[1.0, -3.0, 2.0], &[0.0, 2.0, -2.0]]);
-    assert_eq!(negative_semidefinite(&path, 1e-12, &opts()).unwrap(), Semidefinite::NonNegativeWeights);
+    assert_eq!(negative_semidefinite(&path, &[1e-12; 3], &opts()).unwrap(), Semidefinite::NonNegativeWeights);
     // one negative weight (-0.1) covered by the triangle's positive ones: -L is the
     // Laplacian of weights a, b, c with ab + bc + ca = 0.8 > 0, hence semidefinite
     let (a, b, c) = (-0.1, 1.0, 1.0);
     let covered = csr(&[&[-(a + b), a, b], &[a, -(a + c), c], &[b, c, -(b + c)]]);
-    assert!(matches!(negative_semidefinite(&covered, 1e-12, &opts()).unwrap(),
+    assert!(matches!(negative_semidefinite(&covered, &[1e-12; 3], &opts()).unwrap(),
                      Semidefinite::LocalCertificate { groups: 1, largest: 3 }));
     // a lone negative weight: -L = [[-1, 1], [1, -1]] has eigenvalue -2
     let negative = csr(&[&[1.0, -1.0], &[-1.0, 1.0]]);
-    match negative_semidefinite(&negative, 1e-12, &opts()).unwrap() {
+    match negative_semidefinite(&negative, &[1e-12; 2], &opts()).unwrap() {
         Semidefinite::Indefinite { rayleigh, support, vertex } => {
             assert!((-2.0..0.0).contains(&rayleigh), "{rayleigh}");
             assert!(support <= 2 && vertex < 2);
@@ -175,10 +175,10 @@ fn semidefiniteness_certificates_and_witnesses() {
     // too negative to be covered (ab + bc + ca = -0.1 - 0.1 + 0.01 < 0): indefinite too
     let (a, b, c) = (-1.0, 0.1, 0.1);
     let uncovered = csr(&[&[-(a + b), a, b], &[a, -(a + c), c], &[b, c, -(b + c)]]);
-    assert!(matches!(negative_semidefinite(&uncovered, 1e-12, &opts()).unwrap(), Semidefinite::Indefinite { .. }));
+    assert!(matches!(negative_semidefinite(&uncovered, &[1e-12; 3], &opts()).unwrap(), Semidefinite::Indefinite { .. }));
     // the primal of a mesh is semidefinite: certified or non-negative, never a witness
     let (points, cells) = grid(3, 0.24, 5);
     let l = laplacian(&TetView::new(&points, 3, &cells).unwrap(), LaplacianKind::Primal, &opts()).unwrap();
-    let tol = 1e-9 * l.data.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    assert!(!matches!(negative_semidefinite(&l, tol, &opts()).unwrap(), Semidefinite::Indefinite { .. }));
+    let tol = vec![1e-9 * l.data.iter().fold(0.0f64, |m, x| m.max(x.abs())); l.n];
+    assert!(!matches!(negative_semidefinite(&l, &tol, &opts()).unwrap(), Semidefinite::Indefinite { .. }));
 }

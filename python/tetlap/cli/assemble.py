@@ -20,7 +20,7 @@ def arguments(p) -> None:
     p.add_argument("--laplacian", default="dual",
                    help='"primal", "dual" or a float t in [0, 1] (default: dual)')
     p.add_argument("--mass", default="circumcentric",
-                   choices=["barycentric", "circumcentric", "fem"],
+                   choices=["barycentric", "circumcentric", "mixed", "fem"],
                    help="mass matrix (default: circumcentric)")
     p.add_argument("--degenerate", default="raise", choices=["raise", "skip"],
                    help="zero-volume tets: an error, or no contribution (default: raise)")

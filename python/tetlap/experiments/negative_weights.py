@@ -13,7 +13,7 @@ import warnings
 import numpy as np
 
 from .. import assembly, io, meshes
-from ..properties import check
+from ..analysis import check
 from .._progress import bar as progress
 from ._corpus import mesh_files
 

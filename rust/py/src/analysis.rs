@@ -59,7 +59,7 @@ pub fn edges<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, 
 /// weights given row-major, one row of `S::EDGES.len()` per element.
 struct ElementCertificateJob {
     weights: Vec<f64>,
-    tol: f64,
+    tol: Vec<f64>,
 }
 
 impl CellsJob for ElementCertificateJob {
@@ -74,14 +74,15 @@ impl CellsJob for ElementCertificateJob {
                 w
             })
             .collect();
-        tetlap::negative_semidefinite_by_elements::<S>(cells, n, &weights, self.tol, opts)
+        tetlap::negative_semidefinite_by_elements::<S>(cells, n, &weights, &self.tol, opts)
     }
 }
 
 /// `(verdict, name, details)` of the element certificate: `-L = sum_t K_t` with the
 /// element edge weights `weights` (m, 6) for tets or (m, 3) for triangles, local edge order
-/// lexicographic. `verdict` is True ("element certificate", details `groups`, `largest`)
-/// or None ("undetermined", details `uncovered`).
+/// lexicographic, up to the per-vertex tolerances `tol` (n,). `verdict` is True ("element
+/// certificate", details `groups`, `largest`) or None ("undetermined", details
+/// `uncovered`).
 #[pyfunction]
 #[pyo3(signature = (cells, n, weights, tol, *, options=Default::default()))]
 pub fn element_certificate<'py>(
@@ -89,7 +90,7 @@ pub fn element_certificate<'py>(
     cells: PyReadonlyArray2<'py, i64>,
     n: usize,
     weights: PyReadonlyArray2<'py, f64>,
-    tol: f64,
+    tol: PyReadonlyArray1<'py, f64>,
     options: OptionsArg,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let input = CellsInput::new(py, &cells, n)?;
@@ -97,7 +98,7 @@ pub fn element_certificate<'py>(
     if weights.shape() != [input.cells.len(), edges] {
         return Err(shape_error(py, format!("weights must have shape ({}, {edges}), got {:?}", input.cells.len(), weights.shape())));
     }
-    let job = ElementCertificateJob { weights: contiguous(py, &weights)?.to_vec(), tol };
+    let job = ElementCertificateJob { weights: contiguous(py, &weights)?.to_vec(), tol: contiguous(py, &tol)?.to_vec() };
     verdict(py, compute(py, options.0, move |opts| input.run(job, opts))?)
 }
 
@@ -191,12 +192,19 @@ pub fn check_operator<'py>(
 }
 
 /// Whether the symmetric `n x n` matrix `l = (data, indices, indptr)` (sorted CSR) is
-/// negative semidefinite up to `tol`: `(answer True | False | None, certificate name,
-/// details dict)`.
+/// negative semidefinite up to the per-vertex tolerances `tol` (n,): `(answer True | False
+/// | None, certificate name, details dict)`.
 #[pyfunction]
 #[pyo3(signature = (n, l, tol, *, options=Default::default()))]
-pub fn negative_semidefinite<'py>(py: Python<'py>, n: usize, l: CsrArg, tol: f64, options: OptionsArg) -> PyResult<Bound<'py, PyTuple>> {
-    let answer = compute(py, options.0, move |opts| tetlap::negative_semidefinite(l.view(n), tol, opts))?;
+pub fn negative_semidefinite<'py>(
+    py: Python<'py>,
+    n: usize,
+    l: CsrArg,
+    tol: PyReadonlyArray1<'py, f64>,
+    options: OptionsArg,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let tol = contiguous(py, &tol)?.to_vec();
+    let answer = compute(py, options.0, move |opts| tetlap::negative_semidefinite(l.view(n), &tol, opts))?;
     verdict(py, answer)
 }
 

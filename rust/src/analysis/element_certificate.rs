@@ -11,16 +11,16 @@
 //!   ring at a time, until the group's summed matrix passes (the groups are disjoint: a
 //!   group that reaches another absorbs it whole), up to [`MAX_GROUP`] vertices.
 //!
-//! With each piece `P` satisfying `P + tau I_P >= 0` on its own vertices, and at most `c`
-//! pieces at any vertex (`c` is bounded by the largest vertex valence in elements),
-//! `lambda_min(sum P) >= -c tau`: the shift is `tau = tol / c`. This certifies the sum of
-//! the element matrices; the caller accounts for any difference between that sum and a
-//! given matrix. The dense work is bounded by [`WORK_PER_ELEMENT`] per element. At the
+//! With each piece `P` satisfying `P + diag(tau)_P >= 0` on its own vertices, and at most
+//! `c` pieces at any vertex (`c` is bounded by the largest vertex valence in elements),
+//! `sum P + c diag(tau)` is positive semidefinite: the shifts are `tau_v = tol_v / c` for
+//! the per-vertex tolerances `tol`. This certifies the sum of the element matrices; the
+//! caller accounts for any difference between that sum and a given matrix. The dense work is bounded by [`WORK_PER_ELEMENT`] per element. At the
 //! first group that cannot be certified (or when the work runs out) the answer is
 //! [`Semidefinite::Undetermined`] (`uncovered: 1`): a failing group does not prove
 //! indefiniteness (the elements beyond it may compensate).
 
-use crate::analysis::definite::{cholesky, Semidefinite, MAX_GROUP};
+use crate::analysis::definite::{check_tolerances, cholesky, Semidefinite, MAX_GROUP};
 use crate::error::Result;
 use crate::topology::faces::faces;
 use crate::topology::group::group_by;
@@ -36,9 +36,12 @@ const RINGS: usize = 6;
 /// 130 per element); past it the answer is undetermined.
 const WORK_PER_ELEMENT: f64 = 50_000.0;
 
-/// Whether `-L = sum_t K_t` is negative semidefinite up to `tol`, from the element edge
-/// weights `weights` (one entry per element of `cells`, local order [`Simplex::EDGES`]) over
-/// `n` vertices: [`Semidefinite::ElementCertificate`] or [`Semidefinite::Undetermined`].
+/// Whether `-L = sum_t K_t` is negative semidefinite up to the tolerances `tol` (one per
+/// vertex, finite and `>= 0`: whether `-L + diag(tol)` is positive semidefinite), from the
+/// element edge weights `weights` (one entry per element of `cells`, local order
+/// [`Simplex::EDGES`]) over `n` vertices: [`Semidefinite::ElementCertificate`] or
+/// [`Semidefinite::Undetermined`]; [`crate::Error::Shape`] for tolerances of the wrong
+/// length or value.
 ///
 /// ```
 /// use tetlap::{contributions, negative_semidefinite_by_elements, LaplacianKind, Options, Semidefinite, Tet, TetView};
@@ -47,7 +50,7 @@ const WORK_PER_ELEMENT: f64 = 50_000.0;
 /// let mesh = TetView::new(&points, 3, &cells)?;
 /// let opts = Options::default();
 /// let primal = contributions(&mesh, LaplacianKind::Primal, &opts)?;
-/// let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &primal, 1e-12, &opts)?;
+/// let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &primal, &[1e-12; 5], &opts)?;
 /// // every element matrix of the primal is a Gram matrix: no group is needed
 /// assert_eq!(answer, Semidefinite::ElementCertificate { groups: 0, largest: 1 });
 /// # Ok::<(), tetlap::Error>(())
@@ -56,22 +59,24 @@ pub fn negative_semidefinite_by_elements<S: Simplex>(
     cells: &[S::Cell],
     n: usize,
     weights: &[S::EdgeValues],
-    tol: f64,
+    tol: &[f64],
     opts: &Options,
 ) -> Result<Semidefinite> {
     assert_eq!(cells.len(), weights.len(), "one weight vector per element");
+    check_tolerances(tol, n)?;
     opts.install(|| certify::<S>(cells, n, weights, tol, opts))
 }
 
-fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[S::EdgeValues], tol: f64, opts: &Options) -> Result<Semidefinite> {
+fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[S::EdgeValues], tol: &[f64], opts: &Options) -> Result<Semidefinite> {
     let mut valence = vec![0usize; n];
     for cell in cells {
         for &v in cell.as_ref() {
             valence[v as usize] += 1;
         }
     }
-    let tau = tol / valence.iter().copied().max().unwrap_or(1).max(1) as f64;
-    let passes = |elements: &[u32], vertices: &[u32]| group_passes::<S>(cells, weights, elements, vertices, tau);
+    let c = valence.iter().copied().max().unwrap_or(1).max(1) as f64;
+    let tau: Vec<f64> = tol.iter().map(|t| t / c).collect();
+    let passes = |elements: &[u32], vertices: &[u32]| group_passes::<S>(cells, weights, elements, vertices, &tau);
     let failing: Vec<u32> = (0..cells.len() as u32)
         .into_par_iter()
         .with_min_len(4096)
@@ -160,9 +165,9 @@ fn group_vertices<S: Simplex>(cells: &[S::Cell], elements: &[u32]) -> Vec<u32> {
     vertices
 }
 
-/// Whether the summed element matrices of `elements` plus `tau I` on their sorted
+/// Whether the summed element matrices of `elements` plus `diag(tau)` on their sorted
 /// `vertices` have a Cholesky factorisation.
-fn group_passes<S: Simplex>(cells: &[S::Cell], weights: &[S::EdgeValues], elements: &[u32], vertices: &[u32], tau: f64) -> bool {
+fn group_passes<S: Simplex>(cells: &[S::Cell], weights: &[S::EdgeValues], elements: &[u32], vertices: &[u32], tau: &[f64]) -> bool {
     let size = vertices.len();
     let mut a = vec![0.0; size * size];
     for &e in elements {
@@ -176,7 +181,8 @@ fn group_passes<S: Simplex>(cells: &[S::Cell], weights: &[S::EdgeValues], elemen
             a[j * size + i] -= w;
         }
     }
-    cholesky(&mut a, size, tau).is_ok()
+    let shift: Vec<f64> = vertices.iter().map(|&v| tau[v as usize]).collect();
+    cholesky(&mut a, size, &shift).is_ok()
 }
 
 #[cfg(test)]
@@ -193,7 +199,7 @@ mod tests {
     #[test]
     fn non_negative_element_weights_need_no_groups() {
         let cells = [[0, 1, 2, 3], [1, 2, 3, 4]];
-        let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &[weights(1.0, 1.0); 2], 1e-12, &Options::default());
+        let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &[weights(1.0, 1.0); 2], &[1e-12; 5], &Options::default());
         assert_eq!(answer.unwrap(), Semidefinite::ElementCertificate { groups: 0, largest: 1 });
     }
 
@@ -205,8 +211,8 @@ mod tests {
         let cells = [[1, 2, 0, 3], [1, 2, 3, 4]];
         let w = [weights(-1.5, 1.0), weights(5.0, 1.0)];
         let opts = Options::default();
-        assert!(!group_passes::<Tet>(&cells, &w, &[0], &group_vertices::<Tet>(&cells, &[0]), 1e-12));
-        let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &w, 1e-12, &opts).unwrap();
+        assert!(!group_passes::<Tet>(&cells, &w, &[0], &group_vertices::<Tet>(&cells, &[0]), &[1e-12; 5]));
+        let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &w, &[1e-12; 5], &opts).unwrap();
         assert_eq!(answer, Semidefinite::ElementCertificate { groups: 1, largest: 2 });
     }
 
@@ -214,7 +220,18 @@ mod tests {
     fn an_indefinite_sum_is_never_certified() {
         let cells = [[1, 2, 0, 3], [1, 2, 3, 4]];
         let w = [weights(-5.0, 1.0), weights(1.0, 1.0)];
-        let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &w, 1e-12, &Options::default()).unwrap();
+        let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &w, &[1e-12; 5], &Options::default()).unwrap();
         assert_eq!(answer, Semidefinite::Undetermined { uncovered: 1, residual: 0.0 });
+    }
+
+    #[test]
+    fn a_skipped_element_with_zero_tolerances_passes() {
+        // element 1 contributes nothing (skipped as degenerate): vertex 4 has a zero row,
+        // and a tolerance relative to its diagonal is zero
+        let cells = [[0, 1, 2, 3], [1, 2, 3, 4]];
+        let w = [weights(1.0, 1.0), [0.0; 6]];
+        let tol = [1e-9, 1e-9, 1e-9, 1e-9, 0.0];
+        let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &w, &tol, &Options::default()).unwrap();
+        assert_eq!(answer, Semidefinite::ElementCertificate { groups: 0, largest: 1 });
     }
 }

@@ -1,4 +1,5 @@
-"""Array-likes in, clear errors for bad input, inputs never modified."""
+"""tetlap._arrays: array-likes in, clear errors for bad input, inputs never modified; a
+mesh object in place of (V, T), followed by the other arguments as users write them."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ FUNCTIONS = [
     lambda V, T, **kw: tetlap.operators(V, T, "dual", "barycentric", **kw)[0],
     lambda V, T, **kw: tetlap.triplets(V, T, **kw).vals,
     lambda V, T, **kw: tetlap.edge_weights(V, T, **kw)[1],
-    lambda V, T, **kw: tetlap.tet_contributions(V, T, **kw),
+    lambda V, T, **kw: tetlap.element_contributions(V, T, **kw),
 ]
 
 
@@ -134,3 +135,100 @@ def test_translation_invariance_far_from_the_origin():
     A = tetlap.laplacian(V, T, "dual")
     B = tetlap.laplacian(V + 1e6, T, "dual")
     assert abs(A - B).max() <= 1e-8 * abs(A).max()  # 1e6 offset costs ~6 digits
+
+
+# ---- a mesh object in place of V and T --------------------------------------------------
+
+V1, T1 = tetlap.meshes.cube(2, jitter=0.2, seed=3)
+L1 = tetlap.laplacian(V1, T1, "dual")
+M1 = tetlap.mass(V1, T1, "circumcentric")
+F1 = V1[:, 0] ** 2
+
+#: Every function that takes a mesh: (the call with arrays, the natural call with an object).
+NATURAL_CALLS = {
+    "laplacian": (lambda V, T: tetlap.laplacian(V, T, "dual"), lambda m: tetlap.laplacian(m, "dual")),
+    "mass": (lambda V, T: tetlap.mass(V, T, "fem"), lambda m: tetlap.mass(m, "fem")),
+    "operators": (lambda V, T: tetlap.operators(V, T, "dual", "circumcentric"),
+                  lambda m: tetlap.operators(m, "dual", "circumcentric")),
+    "triplets": (lambda V, T: tetlap.triplets(V, T, 0.5), lambda m: tetlap.triplets(m, 0.5)),
+    "edge_weights": (lambda V, T: tetlap.edge_weights(V, T, "dual"),
+                     lambda m: tetlap.edge_weights(m, "dual")),
+    "element_contributions": (lambda V, T: tetlap.element_contributions(V, T, "dual"),
+                              lambda m: tetlap.element_contributions(m, "dual")),
+    "check": (lambda V, T: tetlap.check(L1, V, T, M1).to_dict(),
+              lambda m: tetlap.check(L1, m, M1).to_dict()),
+    "vjp": (lambda V, T: tuple(tetlap.vjp(V, T, "dual", dL=L1)),
+            lambda m: tuple(tetlap.vjp(m, "dual", dL=L1))),
+    "dirichlet_energy": (lambda V, T: tetlap.dirichlet_energy(V, T, F1, "dual"),
+                         lambda m: tetlap.dirichlet_energy(m, F1, "dual")),
+    "mass_energy": (lambda V, T: tetlap.mass_energy(V, T, F1, "circumcentric"),
+                    lambda m: tetlap.mass_energy(m, F1, "circumcentric")),
+    "Mesh": (lambda V, T: tetlap.Mesh(V, T).laplacian("dual"),
+             lambda m: tetlap.Mesh(m).laplacian("dual")),
+    "non_delaunay_faces": (lambda V, T: tetlap.diagnostics.non_delaunay_faces(V, T, 1e-6),
+                           lambda m: tetlap.diagnostics.non_delaunay_faces(m, 1e-6)),
+    "degenerate_tets": (lambda V, T: tetlap.diagnostics.degenerate_tets(V, T, 0.5),
+                        lambda m: tetlap.diagnostics.degenerate_tets(m, 0.5)),
+    "summary": (lambda V, T: tetlap.diagnostics.summary(V, T, 1e-6),
+                lambda m: tetlap.diagnostics.summary(m, 1e-6)),
+    "dual_boundary_areas": (lambda V, T: tetlap.solve.dual_boundary_areas(V, T, [1.0, 2.0, 0.0]),
+                            lambda m: tetlap.solve.dual_boundary_areas(m, [1.0, 2.0, 0.0])),
+}
+
+
+def same(a, b) -> bool:
+    """Bitwise equality of results: sparse arrays, arrays, numbers, tuples, dicts."""
+    if hasattr(a, "tocsr"):
+        a, b = a.tocsr(), b.tocsr()
+        return all(np.array_equal(x, y) for x, y in
+                   ((a.data, b.data), (a.indices, b.indices), (a.indptr, b.indptr)))
+    if isinstance(a, (tuple, list)):
+        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(same(a[k], b[k]) for k in a)
+    return np.array_equal(a, b, equal_nan=isinstance(a, float) or np.asarray(a).dtype.kind == "f")
+
+
+def mesh_objects():
+    import meshio  # a test extra
+
+    objects = {"meshio": meshio.Mesh(V1, [("tetra", T1)])}
+    try:
+        import pyvista
+    except ImportError:
+        return objects
+    objects["pyvista"] = pyvista.UnstructuredGrid({pyvista.CellType.TETRA: T1}, V1)
+    return objects
+
+
+@pytest.mark.parametrize("library", ["meshio", "pyvista"])
+@pytest.mark.parametrize("name", list(NATURAL_CALLS))
+def test_a_mesh_object_takes_the_arguments_after_t_in_their_places(library, name):
+    pytest.importorskip(library)
+    obj = mesh_objects()[library]
+    with_arrays, natural = NATURAL_CALLS[name]
+    assert same(natural(obj), with_arrays(V1, T1)), name
+
+
+def test_a_mesh_object_with_t_is_a_type_error_naming_the_function():
+    obj = mesh_objects()["meshio"]
+    for call in (lambda: tetlap.laplacian(obj, T1), lambda: tetlap.laplacian(obj, T1.tolist()),
+                 lambda: tetlap.laplacian(obj, T=T1), lambda: tetlap.vjp(obj, T1)):
+        with pytest.raises(TypeError, match="a mesh object carries its cells"):
+            call()
+    with pytest.raises(TypeError, match="^Mesh: a mesh object carries its cells"):
+        tetlap.Mesh(obj, T1)
+    # keywords and an explicit T=None still work
+    assert same(tetlap.laplacian(obj, kind="dual"), L1)
+    assert same(tetlap.laplacian(obj, None, "dual"), L1)
+    assert same(tetlap.laplacian(V=obj, kind="dual"), L1)
+    assert same(tetlap.check(L1, obj, None, M1).to_dict(), tetlap.check(L1, V1, T1, M1).to_dict())
+
+
+def test_the_decorator_keeps_names_signatures_and_docs():
+    import inspect
+
+    for f in (tetlap.laplacian, tetlap.check, tetlap.dirichlet_energy, tetlap.Mesh.__init__):
+        assert list(inspect.signature(f).parameters).count("V") == 1
+    assert tetlap.laplacian.__name__ == "laplacian" and tetlap.check.__doc__.startswith("Check")
+    assert "laplacian(mesh, \"dual\")" in tetlap.laplacian.__doc__

@@ -1,0 +1,397 @@
+"""Which of the paper's Table 1 properties an operator has on a given mesh, with numbers.
+
+Every check costs ``O(size of the mesh)``: the pattern, sign and precision checks are one
+parallel pass of the Rust core, and semidefiniteness is answered by a certificate (see
+:func:`check`), not by a sparse factorisation.
+
+>>> import tetlap
+>>> V, T = tetlap.meshes.cube(3)
+>>> report = tetlap.check(tetlap.laplacian(V, T, "primal"), V, T)
+>>> report.symmetric, report.nsd, report.linear_precision_ok
+(True, True, True)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import _arrays, _core, _sparse, assembly, diagnostics
+from ._interrupt import interruptible
+from .errors import OptionError, ShapeError
+
+__all__ = ["check", "Report", "negative_weights", "NEGATIVE_TOL", "TOL", "NSD_RTOL", "DENSE_NSD_MAX", "SPARSE_NSD_MAX"]
+
+#: A weight counts as negative when ``w < -NEGATIVE_TOL * max|w|``: weights that are zero
+#: up to rounding (right dihedral angles of a Kuhn grid) do not count.
+NEGATIVE_TOL = 1e-12
+#: Relative tolerance of the symmetry, row-sum and linear-precision checks.
+TOL = 1e-10
+#: ``L`` counts as negative semidefinite when ``-L + NSD_RTOL * diag(|L_ii|)`` is positive
+#: semidefinite: each vertex's tolerance is relative to its own row, so that no part of the
+#: mesh (a component far larger, a region far finer) sets the tolerance of another.
+NSD_RTOL = 1e-9
+#: Largest n for which the NSD check computes all eigenvalues (exact, dense).
+DENSE_NSD_MAX = 2500
+
+
+@dataclasses.dataclass
+class Report:
+    """Property checks of one Laplacian (and optionally one mass matrix) on one mesh.
+
+    Every quantity is a plain Python number (or None when it does not apply, with the
+    reason in ``notes``); the ``*_ok`` flags compare them with the documented tolerances.
+    ``nsd_min_eigenvalue`` is the smallest eigenvalue of ``-L`` (dense route) or, for an
+    indefinite ``L``, the Rayleigh quotient of the witness (an upper bound on it).
+    """
+
+    n_vertices: int
+    n_tets: int
+    finite: bool
+    symmetric: bool | None
+    symmetry_error: float
+    max_row_sum: float
+    row_sums_ok: bool | None
+    local: bool
+    linear_precision_residual: float | None
+    linear_precision_ok: bool | None
+    nsd: bool | None
+    nsd_min_eigenvalue: float | None
+    nsd_method: str
+    min_weight: float
+    n_edges: int
+    n_negative: int
+    negative_fraction: float
+    n_edges_interior: int
+    n_negative_interior: int
+    negative_fraction_interior: float
+    negative_tol: float = NEGATIVE_TOL
+    mass_min: float | None = None
+    mass_nonpositive: int | None = None
+    mass_total: float | None = None
+    mesh_volume: float | None = None
+    notes: list[str] = dataclasses.field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """A JSON-serialisable dict of every field."""
+        return dataclasses.asdict(self)
+
+    def rows(self) -> list[tuple[str, bool | None, str]]:
+        """The table's rows: ``(property, passed, numbers)``; with a NaN or Inf in ``L``
+        only finiteness and locality are decided (the other rows are ``None``)."""
+        numeric = (lambda ok: ok) if self.finite else (lambda ok: None)
+        rows = [
+            ("finite (no NaN/Inf)", self.finite, ""),
+            ("symmetric", self.symmetric, f"max |L - L^T| = {self.symmetry_error:.2e}"),
+            ("zero row sums", self.row_sums_ok, f"max |row sum| = {self.max_row_sum:.2e}"),
+            ("local (edges + diagonal)", self.local, ""),
+            ("linear precision (interior)", self.linear_precision_ok,
+             _fmt(self.linear_precision_residual, "relative residual {:.2e}")),
+            ("negative semidefinite", self.nsd,
+             _fmt(self.nsd_min_eigenvalue, "min eig(-L) {:.3e} ") + f"[{self.nsd_method}]"),
+            ("non-negative weights", numeric(self.n_negative == 0),
+             f"{self.n_negative}/{self.n_edges} negative ({100 * self.negative_fraction:.2f}%), "
+             f"min w = {self.min_weight:.3e}"),
+            ("  ... edges not both on the boundary", numeric(self.n_negative_interior == 0),
+             f"{self.n_negative_interior}/{self.n_edges_interior} negative "
+             f"({100 * self.negative_fraction_interior:.2f}%)"),
+        ]
+        if self.mass_total is not None:
+            rows.append(("positive mass", self.mass_nonpositive == 0,
+                         f"min {self.mass_min:.3e}, {self.mass_nonpositive} <= 0"))
+            rows.append(("mass total = volume",
+                         math.isclose(self.mass_total, self.mesh_volume, rel_tol=1e-9),
+                         f"{self.mass_total:.12g} vs {self.mesh_volume:.12g}"))
+        return rows
+
+    def __str__(self) -> str:
+        rows = self.rows()
+        width = max(len(r[0]) for r in rows)
+        mark = {True: "yes", False: "NO", None: "n/a"}
+        lines = [f"{self.n_vertices} vertices, {self.n_tets} tets"]
+        lines += [f"{name:<{width}}  {mark[ok]:>3}  {detail}" for name, ok, detail in rows]
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+
+def _fmt(value, template: str) -> str:
+    return "" if value is None else template.format(value)
+
+
+@_arrays.takes_mesh_object
+def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL,
+          nsd: bool = True) -> Report:
+    """Check a Laplacian ``L`` (and mass ``M``) of the mesh ``(V, T)`` against Table 1.
+
+    Parameters
+    ----------
+    L : (n, n) SciPy sparse array or matrix (any format)
+        In the paper's sign convention (``L[i, i] = -sum_j L[i, j]``). Not modified.
+    V : (n, d) array-like of real numbers
+        Vertex positions.
+    T : (m, 4) array-like of integers, optional
+        Tets, any orientation; leave it out to pass a mesh object as ``V``.
+    M : (n, n) SciPy sparse array or matrix, optional
+        A mass matrix (lumped or consistent): positivity and total volume are checked.
+    kind : {"primal", "dual"} or float, optional
+        What ``L`` is meant to be, if known; it only helps the semidefiniteness check
+        (see Notes). Without it, ``L`` is compared with the primal of the mesh.
+    negative_tol : float, default 1e-12
+        A weight is negative when ``w < -negative_tol * max|w|``.
+    nsd : bool, default True
+        False skips the semidefiniteness check.
+
+    Returns
+    -------
+    Report
+        A dataclass (``to_dict()``; ``str()`` is a table). An ``L`` with NaN or Inf
+        entries is reported (``finite=False``), not refused; its other checks are then
+        ``None``.
+
+    Notes
+    -----
+    Linear precision (Eq. 26) is ``max_i |(L V)_i|`` over interior vertices relative to
+    ``max|L| * diameter``; it applies to meshes in R^3 (an immersed mesh is curved).
+
+    ``L`` counts as negative semidefinite when ``-L + 1e-9 diag(|L_ii|)`` is positive
+    semidefinite (``NSD_RTOL``): the tolerance of each vertex is relative to its own row
+    (equivalently, the Jacobi-scaled ``D^-1/2 (-L) D^-1/2``, ``D = diag(|L_ii|)``, has no
+    eigenvalue below -1e-9). A mesh part of another scale (a far larger component, a far
+    finer region) therefore changes nothing about the answer for the rest: "yes" holds of
+    every part, and scaling any part leaves the answer as it is. The answer is, in this
+    order: for ``n <= 2500``, dense eigenvalues (of ``-L``, whose smallest is reported, and
+    of the scaled matrix, which decide). Then the **element certificate**, if ``L`` is the
+    mesh's operator of ``kind`` (without ``kind``: the primal, then the dual) to 1e-12
+    relative: ``-L`` is the sum of per-tet matrices ``K_t``; each is checked positive
+    semidefinite (for the primal, ``Vol_t G_t G_t^T``: by construction), and tets that fail
+    are grouped with face neighbours until each group's sum is (a sum of positive
+    semidefinite matrices is one); at every vertex the shifts of the pieces and the gap to
+    ``L`` add up to at most its tolerance. Then the certificate of
+    :func:`tetlap._core.negative_semidefinite` on the edge weights: non-negative weights (a
+    weighted graph Laplacian), or every negative weight covered by the positive weights of
+    its neighbourhood, or a witness vector ``x`` on a small neighbourhood with
+    ``x^T (-L) x < -1e-9 x^T D x`` (indefinite, by interlacing). Those steps cost ``O(size
+    of the mesh)``. When none of them answers and ``n <= 30000`` (``SPARSE_NSD_MAX``), the
+    inertia of a sparse LDL^T of ``-L + 1e-9 D`` decides (seconds at that size); otherwise
+    ``nsd`` is None and ``nsd_method`` says why.
+
+    Examples
+    --------
+    >>> import tetlap
+    >>> V, T = tetlap.meshes.weighted_ball(600, 0.5, seed=1)
+    >>> r = tetlap.check(tetlap.laplacian(V, T, "dual"), V, T)
+    >>> r.nsd, r.n_negative_interior > 0
+    (False, True)
+    """
+    V, T = _arrays.mesh(V, T)
+    V = _arrays.points(V)
+    T = _arrays.elements(T, 4)
+    if kind is not None and not (kind in ("primal", "dual") or (
+            isinstance(kind, numbers.Real) and not isinstance(kind, bool) and 0 <= kind <= 1)):
+        raise OptionError(f'kind must be None, "primal", "dual" or a float t in [0, 1], got {kind!r}')
+    return _check(L, V, T, M, kind=kind, negative_tol=negative_tol, nsd=nsd)
+
+
+def negative_weights(L, V, T, on_boundary=None) -> tuple[int, int]:
+    """``(negative, negative_interior)``: the weights of ``L`` that count as negative, over
+    all mesh edges and over the edges not both on the boundary, by the one rule of
+    :func:`check` (``w < -NEGATIVE_TOL * max|w|``, counted by the core in one pass).
+
+    ``V``, ``T`` validated (float64 points, int64 tets); ``on_boundary`` the (n,) boundary
+    vertex mask when the caller has it.
+    """
+    if on_boundary is None:
+        on_boundary = diagnostics.boundary_vertices(T, V.shape[0])
+    c = _core.check_operator(V, T, _sparse.arrays(L), on_boundary, NEGATIVE_TOL)
+    return int(c["n_negative"]), int(c["n_negative_inner"])
+
+
+def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=None,
+           assembled=False) -> Report:
+    """:func:`check` on validated ``V`` (float64) and ``T`` (int64), reusing what the
+    caller already has: the ``boundary`` vertex mask, the ``mesh_volume``, and
+    ``assembled=True`` when ``L`` is ``laplacian(V, T, kind, degenerate="skip")`` itself."""
+    n = V.shape[0]
+    L = _arrays.matrix(L, n, finite=False)  # a NaN or Inf is reported, not refused
+    if boundary is None:
+        boundary = diagnostics.boundary_vertices(T, n)
+    c = _core.check_operator(V, T, _sparse.arrays(L), boundary, float(negative_tol))
+    notes: list[str] = []
+    scale = c["scale"] if c["scale"] > 0 else 1.0
+    lp = c["linear_precision"]
+    if V.shape[1] != 3:
+        notes.append("linear precision: not applicable to an immersed (d > 3) mesh")
+    elif lp is None:
+        notes.append("linear precision: the mesh has no interior vertices")
+
+    finite = c["finite"]
+    if not finite:
+        notes.append("L has NaN or Inf entries: only finiteness and locality are decided")
+    decided = (lambda ok: ok) if finite else (lambda ok: None)
+
+    nsd_ok, min_eig, method = None, None, "skipped (nsd=False)"
+    if nsd and not c["finite"]:
+        method = "skipped (not finite)"
+    elif nsd:
+        nsd_ok, min_eig, method = _nsd(L, V, T, scale, kind, assembled)
+
+    edges, inner = c["n_edges"], c["n_edges_inner"]
+    report = Report(
+        n_vertices=n,
+        n_tets=int(T.shape[0]),
+        finite=finite,
+        symmetric=decided(c["symmetry_error"] <= TOL * scale),
+        symmetry_error=c["symmetry_error"],
+        max_row_sum=c["max_row_sum"],
+        row_sums_ok=decided(c["max_row_sum"] <= TOL * scale),
+        local=c["local"],
+        linear_precision_residual=lp,
+        linear_precision_ok=None if lp is None else decided(lp < TOL),
+        nsd=nsd_ok,
+        nsd_min_eigenvalue=min_eig,
+        nsd_method=method,
+        min_weight=c["min_weight"],
+        n_edges=edges,
+        n_negative=c["n_negative"],
+        negative_fraction=c["n_negative"] / edges if edges else 0.0,
+        n_edges_interior=inner,
+        n_negative_interior=c["n_negative_inner"],
+        negative_fraction_interior=c["n_negative_inner"] / inner if inner else 0.0,
+        negative_tol=negative_tol,
+        notes=notes,
+    )
+    if M is not None:
+        M = _arrays.matrix(M, n, "M")
+        lumped = np.asarray(M.sum(axis=1)).ravel()
+        report.mass_min = float(lumped.min())
+        report.mass_nonpositive = int((lumped[diagnostics.referenced_vertices(T, n)] <= 0).sum())
+        report.mass_total = float(M.sum())
+        report.mesh_volume = (float(np.abs(diagnostics.signed_volumes(V, T)).sum())
+                              if mesh_volume is None else mesh_volume)
+    return report
+
+
+#: Largest n for the last NSD step, the inertia of a sparse LDL^T factorisation.
+SPARSE_NSD_MAX = 30_000
+
+
+def _ldl_inertia(A: sp.csr_array, shift: np.ndarray) -> int | None:
+    """Negative pivots of a symmetric-mode LU (an LDL^T with diagonal pivoting and a
+    fill-reducing ordering) of ``A + diag(shift)``: by Sylvester's law, the number of its
+    negative eigenvalues. None if the factorisation had to pivot off the diagonal. Runs on
+    a helper thread (SuperLU releases the GIL), so Ctrl-C is answered at once; an
+    interrupted factorisation finishes in the background and is dropped."""
+    from scipy.sparse.linalg import splu
+
+    shifted = sp.csc_array(A + sp.diags_array(shift))
+    lu = interruptible(splu, shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                       options={"SymmetricMode": True})
+    if not np.array_equal(lu.perm_r, lu.perm_c):
+        return None
+    return int((lu.U.diagonal() < 0).sum())
+
+
+def _row_gaps(A: sp.csr_array, B: sp.csr_array) -> np.ndarray:
+    """``sum_j |A_ij - B_ij|`` per row (n,): for symmetric ``A`` and ``B``,
+    ``|x^T (A - B) x| <= sum_i gap_i x_i^2`` (Gershgorin)."""
+    return np.asarray(abs(A - B).sum(axis=1)).ravel()
+
+
+def _live_rows(S: sp.csr_array, diagonal: np.ndarray) -> tuple[np.ndarray, int | None]:
+    """The rows of ``S`` with a non-zero entry, and the first of them whose diagonal is
+    zero (None if none is). An all-zero row is an eigenvalue 0 on its own, semidefinite
+    under any tolerance; a row with entries but a zero diagonal makes ``-L + diag(tol)``
+    indefinite whatever the tolerances (its 2 x 2 principal minor with an off-diagonal
+    entry has a negative determinant)."""
+    live = np.asarray(abs(S).sum(axis=1)).ravel() > 0
+    zero = np.flatnonzero(live & (diagonal == 0))
+    return np.flatnonzero(live), (int(zero[0]) if len(zero) else None)
+
+
+def _dense(S: sp.csr_array, diagonal: np.ndarray):
+    """(is NSD, smallest eigenvalue of -L, method) from dense eigenvalues: those of ``-L``
+    (the smallest is reported) and, unless that one already says no, those of the
+    Jacobi-scaled ``D^-1/2 (-L) D^-1/2`` on the rows with entries, which decide."""
+    A = (-S).toarray()
+    lam = float(interruptible(np.linalg.eigvalsh, A)[0])
+    verdict = False  # lambda_min(-L + diag(tol)) <= lam + max(tol) < 0
+    if lam >= -NSD_RTOL * diagonal.max():
+        live, zero_diagonal = _live_rows(S, diagonal)
+        verdict = zero_diagonal is None
+        if verdict and len(live):
+            s = 1 / np.sqrt(diagonal[live])
+            B = A[np.ix_(live, live)] * s[:, None] * s[None, :]
+            verdict = float(interruptible(np.linalg.eigvalsh, B)[0]) >= -NSD_RTOL
+    return verdict, lam, "dense eigenvalues"
+
+
+def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool):
+    """(is NSD, smallest eigenvalue of -L or a witness' Rayleigh quotient, method)."""
+    n = L.shape[0]
+    S = (L + L.T) / 2
+    S.sort_indices()
+    diagonal = np.abs(S.diagonal())
+    if n <= DENSE_NSD_MAX:
+        return _dense(S, diagonal)
+    tol = NSD_RTOL * diagonal
+    answer = _element_certificate(S, V, T, scale, tol, kind, assembled)
+    if answer is not None:
+        return answer
+    verdict, name, details = _core.negative_semidefinite(n, _sparse.arrays(S), tol)
+    if name == "local certificate":
+        name = (f"local certificate: {details['groups']} neighbourhoods of <= "
+                f"{details['largest']} vertices cover every negative weight")
+    elif name == "indefinite":
+        return False, details["rayleigh"], (
+            f"witness: a vector on {details['support']} vertices around vertex "
+            f"{details['vertex']} with Rayleigh quotient {details['rayleigh']:.3e}")
+    elif name == "undetermined":
+        reason = (f"{details['uncovered']} negative weights not covered by neighbourhoods of "
+                  f"<= {_core.MAX_GROUP} vertices")
+        if n > SPARSE_NSD_MAX:
+            return None, None, f"undetermined: {reason} (n > {SPARSE_NSD_MAX})"
+        live, zero_diagonal = _live_rows(S, diagonal)
+        if zero_diagonal is not None:
+            return False, None, (f"row {zero_diagonal} of L has entries but a zero diagonal "
+                                 "(an indefinite 2 x 2 principal minor)")
+        negatives = _ldl_inertia((-S)[live][:, live], tol[live])
+        if negatives is None:
+            return None, None, f"undetermined: {reason}; the LDL^T pivoted off the diagonal"
+        return negatives == 0, None, (f"inertia of a sparse LDL^T of -L + {NSD_RTOL:.0e} "
+                                      f"diag(|L_ii|): {negatives} negative pivots ({reason})")
+    return verdict, None, name
+
+
+def _element_certificate(S, V, T, scale: float, tol: np.ndarray, kind, assembled: bool):
+    """The NSD answer from the per-tet matrices, if ``S`` (the symmetric part of ``L``) is
+    the mesh's operator ``kind`` (the primal, then the dual, when ``kind`` is None):
+    ``-S = sum_t K_t + E`` with ``|x^T E x| <= sum_i gap_i x_i^2``; every ``K_t`` is
+    checked, failing ones in small groups of neighbours, with the shifts ``tol - gap``
+    (:func:`tetlap._core.element_certificate`). None when ``S`` is none of them, a gap
+    exceeds its vertex's tolerance or a group could not be certified. ``assembled``: ``L``
+    is that operator (gaps zero)."""
+    n = V.shape[0]
+    for candidate in ("primal", "dual") if kind is None else (kind,):
+        gaps = (np.zeros(n) if assembled
+                else _row_gaps(S, assembly.laplacian(V, T, candidate, degenerate="skip")))
+        gap = float(gaps.max())
+        if gap > 1e-12 * scale:
+            continue
+        if (gaps > tol).any():
+            return None
+        W = assembly.element_contributions(V, T, candidate, degenerate="skip")
+        verdict, _, details = _core.element_certificate(T, n, W, tol - gaps)
+        if not verdict:
+            return None
+        name = candidate if isinstance(candidate, str) else f"t = {candidate:g} affine"
+        groups = details["groups"]
+        covered = (f", except in {groups} groups of <= {details['largest']} neighbouring tets "
+                   "whose sums are positive semidefinite" if groups else "")
+        construction = " (Gram matrices: by construction)" if candidate == "primal" else ""
+        return True, None, (f"element certificate: L is the {name} Laplacian (to {gap:.1e}), a sum "
+                            f"of per-tet matrices{construction}, each positive semidefinite{covered}")
+    return None
