@@ -30,10 +30,10 @@ cells_job!(EdgesJob, Vec<[u32; 2]>, |cells, n, opts| tetlap::edges::<S>(cells, n
 /// `[element, opposite corner]`, pairs of elements across interior faces as `[element,
 /// corner, element, corner]`, non-manifold faces as sorted vertex triples (-1 unused).
 #[pyfunction]
-#[pyo3(signature = (cells, n, *, options=Default::default()))]
-pub fn faces<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, options: OptionsArg) -> PyResult<Bound<'py, PyTuple>> {
+#[pyo3(signature = (cells, n, *, options=None))]
+pub fn faces<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, options: Option<OptionsArg>) -> PyResult<Bound<'py, PyTuple>> {
     let input = CellsInput::new(py, &cells, n)?;
-    let f = compute(py, options.0, move |opts| input.run(FacesJob, opts))?;
+    let f = compute(py, OptionsArg::options(options), move |opts| input.run(FacesJob, opts))?;
     let nonmanifold: Vec<i64> = f.nonmanifold.iter().flat_map(|r| r.map(|v| if v == u32::MAX { -1 } else { v as i64 })).collect();
     let nonmanifold = PyArray1::from_vec(py, nonmanifold).reshape([f.nonmanifold.len(), 3])?.into_any();
     PyTuple::new(py, [table(py, &f.boundary)?, table(py, &f.interior)?, nonmanifold])
@@ -41,18 +41,18 @@ pub fn faces<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, 
 
 /// `(m,)` bool: the element repeats the vertex set of an element with a lower index.
 #[pyfunction]
-#[pyo3(signature = (cells, n, *, options=Default::default()))]
-pub fn duplicates<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, options: OptionsArg) -> PyResult<Bound<'py, PyArray1<bool>>> {
+#[pyo3(signature = (cells, n, *, options=None))]
+pub fn duplicates<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, options: Option<OptionsArg>) -> PyResult<Bound<'py, PyArray1<bool>>> {
     let input = CellsInput::new(py, &cells, n)?;
-    Ok(PyArray1::from_vec(py, compute(py, options.0, move |opts| input.run(DuplicatesJob, opts))?))
+    Ok(PyArray1::from_vec(py, compute(py, OptionsArg::options(options), move |opts| input.run(DuplicatesJob, opts))?))
 }
 
 /// `(E, 2)` int64: the unique edges `i < j`, sorted.
 #[pyfunction]
-#[pyo3(signature = (cells, n, *, options=Default::default()))]
-pub fn edges<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, options: OptionsArg) -> PyResult<Bound<'py, PyAny>> {
+#[pyo3(signature = (cells, n, *, options=None))]
+pub fn edges<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, options: Option<OptionsArg>) -> PyResult<Bound<'py, PyAny>> {
     let input = CellsInput::new(py, &cells, n)?;
-    table(py, &compute(py, options.0, move |opts| input.run(EdgesJob, opts))?)
+    table(py, &compute(py, OptionsArg::options(options), move |opts| input.run(EdgesJob, opts))?)
 }
 
 /// The element certificate of [`tetlap::negative_semidefinite_by_elements`] for edge
@@ -84,14 +84,14 @@ impl CellsJob for ElementCertificateJob {
 /// certificate", details `groups`, `largest`) or None ("undetermined", details
 /// `uncovered`).
 #[pyfunction]
-#[pyo3(signature = (cells, n, weights, tol, *, options=Default::default()))]
+#[pyo3(signature = (cells, n, weights, tol, *, options=None))]
 pub fn element_certificate<'py>(
     py: Python<'py>,
     cells: PyReadonlyArray2<'py, i64>,
     n: usize,
     weights: PyReadonlyArray2<'py, f64>,
     tol: PyReadonlyArray1<'py, f64>,
-    options: OptionsArg,
+    options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let input = CellsInput::new(py, &cells, n)?;
     let edges = if cells.shape()[1] == 4 { 6 } else { 3 };
@@ -99,15 +99,15 @@ pub fn element_certificate<'py>(
         return Err(shape_error(py, format!("weights must have shape ({}, {edges}), got {:?}", input.cells.len(), weights.shape())));
     }
     let job = ElementCertificateJob { weights: contiguous(py, &weights)?.to_vec(), tol: contiguous(py, &tol)?.to_vec() };
-    verdict(py, compute(py, options.0, move |opts| input.run(job, opts))?)
+    verdict(py, compute(py, OptionsArg::options(options), move |opts| input.run(job, opts))?)
 }
 
 /// `(volume (m,), dihedral (m, 6) degrees, well_centered (m,) bool)` of a tet mesh.
 #[pyfunction]
-#[pyo3(signature = (points, cells, *, options=Default::default()))]
-pub fn quality<'py>(py: Python<'py>, points: PyReadonlyArray2<'py, f64>, cells: PyReadonlyArray2<'py, i64>, options: OptionsArg) -> PyResult<Bound<'py, PyTuple>> {
+#[pyo3(signature = (points, cells, *, options=None))]
+pub fn quality<'py>(py: Python<'py>, points: PyReadonlyArray2<'py, f64>, cells: PyReadonlyArray2<'py, i64>, options: Option<OptionsArg>) -> PyResult<Bound<'py, PyTuple>> {
     let input = Input::new(py, &points, &cells, None)?;
-    let q = compute(py, options.0, move |opts| tetlap::quality(&input.tets("the quality report")?, opts))?;
+    let q = compute(py, OptionsArg::options(options), move |opts| tetlap::quality(&input.tets("the quality report")?, opts))?;
     let volume: Vec<f64> = q.iter().map(|t| t.volume).collect();
     let dihedral: Vec<f64> = q.iter().flat_map(|t| t.dihedral).collect();
     let well: Vec<bool> = q.iter().map(|t| t.well_centered).collect();
@@ -124,14 +124,14 @@ pub fn quality<'py>(py: Python<'py>, points: PyReadonlyArray2<'py, f64>, cells: 
 /// `(f,)` bool: for every interior face `[t1, c1, t2, c2]`, the vertex of `t2` opposite
 /// the face lies strictly inside the circumsphere of `t1` (R^3).
 #[pyfunction]
-#[pyo3(signature = (points, cells, interior, rtol, *, options=Default::default()))]
+#[pyo3(signature = (points, cells, interior, rtol, *, options=None))]
 pub fn non_delaunay<'py>(
     py: Python<'py>,
     points: PyReadonlyArray2<'py, f64>,
     cells: PyReadonlyArray2<'py, i64>,
     interior: PyReadonlyArray2<'py, i64>,
     rtol: f64,
-    options: OptionsArg,
+    options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyArray1<bool>>> {
     let input = Input::new(py, &points, &cells, None)?;
     if interior.shape()[1] != 4 {
@@ -140,7 +140,7 @@ pub fn non_delaunay<'py>(
     // out-of-range entries become values no mesh has; the core names the face
     let faces: Vec<[u32; 4]> =
         contiguous(py, &interior)?.chunks_exact(4).map(|f| std::array::from_fn(|k| u32::try_from(f[k]).unwrap_or(u32::MAX))).collect();
-    let flags = compute(py, options.0, move |opts| {
+    let flags = compute(py, OptionsArg::options(options), move |opts| {
         tetlap::non_delaunay_faces(&input.tets("the Delaunay test")?, &faces, rtol, opts)
     })?;
     Ok(PyArray1::from_vec(py, flags))
@@ -163,7 +163,7 @@ impl Job for CheckJob {
 /// The Table-1 checks of an operator `l = (data, indices, indptr)` (sorted CSR) on a mesh,
 /// as a dict (see `tetlap::OperatorCheck`).
 #[pyfunction]
-#[pyo3(signature = (points, cells, l, boundary, negative_tol, *, options=Default::default()))]
+#[pyo3(signature = (points, cells, l, boundary, negative_tol, *, options=None))]
 pub fn check_operator<'py>(
     py: Python<'py>,
     points: PyReadonlyArray2<'py, f64>,
@@ -171,11 +171,11 @@ pub fn check_operator<'py>(
     l: CsrArg,
     boundary: PyReadonlyArray1<'py, bool>,
     negative_tol: f64,
-    options: OptionsArg,
+    options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let input = Input::new(py, &points, &cells, None)?;
     let job = CheckJob { l, boundary: contiguous(py, &boundary)?.to_vec(), negative_tol };
-    let c = compute(py, options.0, move |opts| input.run(job, opts))?;
+    let c = compute(py, OptionsArg::options(options), move |opts| input.run(job, opts))?;
     let d = PyDict::new(py);
     d.set_item("finite", c.finite)?;
     d.set_item("scale", c.scale)?;
@@ -195,16 +195,16 @@ pub fn check_operator<'py>(
 /// negative semidefinite up to the per-vertex tolerances `tol` (n,): `(answer True | False
 /// | None, certificate name, details dict)`.
 #[pyfunction]
-#[pyo3(signature = (n, l, tol, *, options=Default::default()))]
+#[pyo3(signature = (n, l, tol, *, options=None))]
 pub fn negative_semidefinite<'py>(
     py: Python<'py>,
     n: usize,
     l: CsrArg,
     tol: PyReadonlyArray1<'py, f64>,
-    options: OptionsArg,
+    options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let tol = contiguous(py, &tol)?.to_vec();
-    let answer = compute(py, options.0, move |opts| tetlap::negative_semidefinite(l.view(n), &tol, opts))?;
+    let answer = compute(py, OptionsArg::options(options), move |opts| tetlap::negative_semidefinite(l.view(n), &tol, opts))?;
     verdict(py, answer)
 }
 

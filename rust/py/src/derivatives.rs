@@ -64,7 +64,7 @@ fn paired<K>(py: Python<'_>, kind: Option<K>, cotangent: Option<Cotangent>, what
 
 /// `(gradient (n, d), weight gradient (n,) or None, value)` of `<dl, L> + <dm, M>`.
 #[pyfunction]
-#[pyo3(signature = (points, cells, laplacian, mass, *, dl=None, dm=None, weights=None, options=Default::default()))]
+#[pyo3(signature = (points, cells, laplacian, mass, *, dl=None, dm=None, weights=None, options=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjp<'py>(
     py: Python<'py>,
@@ -75,13 +75,13 @@ pub fn vjp<'py>(
     dl: Option<Cotangent>,
     dm: Option<Cotangent>,
     weights: Option<PyReadonlyArray1<'py, f64>>,
-    options: OptionsArg,
+    options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let input = Input::new(py, &points, &cells, weights.as_ref())?;
     let lap = paired(py, laplacian.map(|k| k.0), dl, "Laplacian")?;
     let mass = paired(py, mass.map(|k| k.0), dm, "mass")?;
     let dim = input.dim;
-    let g = compute(py, options.0, move |opts| {
+    let g = compute(py, OptionsArg::options(options), move |opts| {
         let mesh = input.tets("a derivative")?;
         let n = mesh.n_vertices();
         let form = |what: &str| tetlap::Error::Shape { what: format!("a {what} cotangent cannot take this form") };

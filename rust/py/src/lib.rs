@@ -46,23 +46,23 @@ mod _core {
     /// kind)` (`(m, 6)` or `(m, 3)`), `("triplets", kind)` (`(rows, cols, vals)`) or
     /// `("edge_weights", kind)` (`(edges (E, 2), weights (E,))`).
     #[pyfunction]
-    #[pyo3(signature = (points, cells, request, *, weights=None, options=Default::default()))]
+    #[pyo3(signature = (points, cells, request, *, weights=None, options=None))]
     fn assemble<'py>(
         py: Python<'py>,
         points: PyReadonlyArray2<'py, f64>,
         cells: PyReadonlyArray2<'py, i64>,
         request: Request,
         weights: Option<PyReadonlyArray1<'py, f64>>,
-        options: OptionsArg,
+        options: Option<OptionsArg>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let input = Input::new(py, &points, &cells, weights.as_ref())?;
-        compute(py, options.0, move |opts| input.run(request, opts))?.into_py(py)
+        compute(py, OptionsArg::options(options), move |opts| input.run(request, opts))?.into_py(py)
     }
 
     /// Checks the options before any work (what every call does first): `None` or an
     /// `OptionError` naming the bad value.
     #[pyfunction]
-    fn check_options(options: OptionsArg) -> PyResult<()> {
-        Python::attach(|py| options.0.check().map_err(|e| crate::errors::to_py(py, e)))
+    fn check_options(options: Option<OptionsArg>) -> PyResult<()> {
+        Python::attach(|py| OptionsArg::options(options).check().map_err(|e| crate::errors::to_py(py, e)))
     }
 }

@@ -75,16 +75,16 @@ impl PyMesh {
 #[pymethods]
 impl PyMesh {
     #[new]
-    #[pyo3(signature = (points, cells, *, weights=None, options=Default::default()))]
+    #[pyo3(signature = (points, cells, *, weights=None, options=None))]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
         cells: PyReadonlyArray2<'_, i64>,
         weights: Option<PyReadonlyArray1<'_, f64>>,
-        options: OptionsArg,
+        options: Option<OptionsArg>,
     ) -> PyResult<Self> {
         let Input { points, dim, cells, weights } = Input::new(py, &points, &cells, weights.as_ref())?;
-        let inner = compute(py, options.0, move |opts| {
+        let inner = compute(py, OptionsArg::options(options), move |opts| {
             let opts = opts.clone();
             let mut mesh = match cells {
                 Cells::Tets(c) => AnyMesh::Tets(CachedMesh::with_vertex_weights(points, dim, c, weights, opts)?),

@@ -83,6 +83,13 @@ impl<'a, 'py> FromPyObject<'a, 'py> for MassArg {
 #[derive(Default)]
 pub struct OptionsArg(pub Options);
 
+impl OptionsArg {
+    /// The core's options of a call: those given, or the defaults.
+    pub fn options(given: Option<OptionsArg>) -> Options {
+        given.unwrap_or_default().0
+    }
+}
+
 impl<'a, 'py> FromPyObject<'a, 'py> for OptionsArg {
     type Error = PyErr;
 
