@@ -290,6 +290,23 @@ def test_degenerate_policy():
 
 # ---------------------------------------------------------------- errors
 
+@pytest.mark.parametrize("degenerate", ["raise", "skip"])
+def test_products_that_overflow_are_an_error_never_dropped(degenerate):
+    """A large f makes the energy overflow, not the tet: never skipped, always named."""
+    V, T = tetlap.meshes.cube(2, jitter=0.2, seed=4)
+    for f in (V[:, 0] * 1e155, np.where(np.arange(len(V)) == 13, 1e155, V[:, 0])):
+        for energy, kind in ((tetlap.dirichlet_energy, "dual"), (tetlap.dirichlet_energy, "primal"),
+                             (tetlap.mass_energy, "circumcentric")):
+            with pytest.raises(tetlap.NonFiniteError, match="cotangents") as error:
+                energy(V, T, f, kind, degenerate=degenerate)
+            assert error.value.element >= 0
+    # in range: the same f scaled down is computed, and skip drops nothing
+    f = V[:, 0] * 1e150
+    E, _ = tetlap.dirichlet_energy(V, T, f, "dual", degenerate=degenerate)
+    L = tetlap.laplacian(V, T, "dual")
+    assert E == pytest.approx(-f @ (L @ f), rel=1e-12)
+
+
 def test_errors():
     V, T = tetlap.meshes.cube(2)
     n, m = len(V), len(T)
