@@ -8,7 +8,7 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
 use tetlap::element::tet::derivatives::{dual_vjp, primal_vjp, volume_vjp, Vjp};
-use tetlap::element::tet::{barycentric_mass, dual, power_dual, primal_weights, volume};
+use tetlap::element::tet::{barycentric_mass, dual, power_dual, primal_weights, volume, Placement};
 use tetlap::{local_tet, LocalTet};
 
 /// 100,000 random tets of the unit cube with volume above 0.01 (a fixed sequence).
@@ -43,7 +43,7 @@ fn bench(c: &mut Criterion) {
     case("barycentric mass", &|t| { black_box(barycentric_mass(t)); });
     case("primal", &|t| { black_box(primal_weights(t)); });
     case("dual", &|t| { black_box(dual(t)); });
-    case("power dual", &|t| { black_box(power_dual(t, Some(&w), false)); });
+    case("power dual", &|t| { black_box(power_dual(t, Some(&w), Placement::Centres)); });
     case("volume vjp", &|t| { black_box(volume_vjp(t, 1.0)); });
     case("primal vjp", &|t| { black_box(primal_vjp(t, dw)); });
     case("dual vjp", &|t| { black_box(dual_vjp(t, None, dw, dm)); });
