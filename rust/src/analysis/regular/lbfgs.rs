@@ -2,8 +2,9 @@
 //!
 //! Each iteration: the variables at a bound whose gradient pushes outwards are held
 //! (the *active* bounds); on the others, the L-BFGS direction of the two-loop recursion
-//! (memory [`MEMORY`], initial scaling `s.y / y.y`); then a backtracking (Armijo) search
-//! along the projected path `clamp(u + t d)`, `t = 1, 1/2, ...`. When that fails, the
+//! (memory [`MEMORY`], initial scaling `s.y / y.y`); then a line search along the projected
+//! path `clamp(u + t d)` from `t = 1` for the weak Wolfe conditions (bisection within a
+//! bracket, doubling before one is found). When that fails, the
 //! memory is dropped and the step retried along the steepest descent. It stops when the
 //! objective reports that it is done, when the objective fell by less than [`STALL_DROP`]
 //! over [`STALL_WINDOW`] iterations (a slow tail, where the caller looks for a proof of
@@ -19,6 +20,9 @@ use std::time::Instant;
 
 /// Pairs `(s, y)` kept by the two-loop recursion.
 pub const MEMORY: usize = 10;
+/// The line search's sufficient decrease (Armijo) and curvature (weak Wolfe) constants.
+const ARMIJO: f64 = 1e-4;
+const WOLFE: f64 = 0.9;
 /// The stall test: the objective fell by less than this fraction...
 pub const STALL_DROP: f64 = 0.01;
 /// ... over this many iterations.
@@ -143,7 +147,9 @@ pub fn minimise(
             if slope.is_nan() || slope >= 0.0 {
                 continue;
             }
-            let mut t = 1.0;
+            // weak Wolfe conditions by bracketing: sufficient decrease, and enough rise of
+            // the slope along the step that the pair (s, y) carries curvature
+            let (mut t, mut lower, mut upper) = (1.0, 0.0f64, f64::INFINITY);
             for _ in 0..40 {
                 fill(&mut trial, |i| (u[i] + t * d[i]).clamp(lo[i], hi[i]));
                 fill(&mut step, |i| trial[i] - u[i]);
@@ -152,7 +158,11 @@ pub fn minimise(
                     break;
                 }
                 let f_trial = objective.eval(&trial, &mut trial_grad);
-                if f_trial <= f + 1e-4 * decrease {
+                if !(f_trial <= f + ARMIJO * decrease) {
+                    upper = t;
+                } else if dot(&trial_grad, &step) < WOLFE * decrease && !objective.done() {
+                    lower = t;
+                } else {
                     let y: Vec<f64> = trial_grad.iter().zip(&grad).map(|(a, b)| a - b).collect();
                     let sy = dot(&step, &y);
                     if sy > 1e-12 * dot(&y, &y).sqrt() * dot(&step, &step).sqrt() {
@@ -167,7 +177,16 @@ pub fn minimise(
                     accepted = true;
                     break;
                 }
-                t *= 0.5;
+                t = if upper.is_finite() { 0.5 * (lower + upper) } else { 2.0 * lower };
+            }
+            if !accepted && lower > 0.0 {
+                // the decrease held but the slope did not rise enough: take the last point
+                // that decreased
+                fill(&mut trial, |i| (u[i] + lower * d[i]).clamp(lo[i], hi[i]));
+                f = objective.eval(&trial, &mut grad);
+                u.copy_from_slice(&trial);
+                memory.clear();
+                accepted = true;
             }
             if accepted {
                 break;

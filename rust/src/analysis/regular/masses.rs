@@ -40,6 +40,9 @@ use rayon::prelude::*;
 pub const ROUNDS: usize = 30;
 /// Iterations of one minimisation (with the mass rows, or the faces alone) at most.
 pub const PASS_ITERATIONS: usize = 300;
+/// The faces of a pass with the mass rows: those with a corner of a watched vertex's tets,
+/// and those whose margin is within this of their aim (the others are checked after it).
+pub const MASS_ACTIVE: f64 = 0.05;
 /// Tets per parallel chunk.
 const TETS: usize = 1024;
 
@@ -239,8 +242,20 @@ pub fn keep_masses(
                 .collect();
             let lo: Vec<f64> = (0..n).map(|j| targets.lo[j].max(u[j] - radius)).collect();
             let hi: Vec<f64> = (0..n).map(|j| targets.hi[j].min(u[j] + radius)).collect();
+            // the faces near their aims, and those of the watched vertices' tets' corners:
+            // the others are far above and are checked after the pass
+            let g = rows.values(u);
+            let mut near_watched = vec![false; n];
+            for (t, cell) in mesh.cells().iter().enumerate() {
+                if cell.iter().any(|&v| watched[v as usize]) {
+                    mesh.cells()[t].iter().for_each(|&v| near_watched[v as usize] = true);
+                }
+            }
+            let working = (0..m).filter(|&r| {
+                g[r] < aim_faces[r] + MASS_ACTIVE || rows.vertices[r].iter().any(|&j| near_watched[j as usize])
+            });
             let faces = Targets { floor: &half, aim: &aim_faces, lo: &lo, hi: &hi };
-            let mut hinge = hinge_rows(&rows, &faces);
+            let mut hinge = hinge_rows(&rows, &faces, working);
             for (entries, b) in linear {
                 hinge.push(entries, 0.0, b, b);
             }

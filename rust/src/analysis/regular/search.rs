@@ -100,11 +100,11 @@ pub struct Outcome {
     pub short: Vec<(u32, f64)>,
 }
 
-/// The rows as hinge rows with the floors and aims of `targets` (more may be pushed before
-/// [`Hinge::finish`]).
-pub(super) fn hinge_rows(rows: &Rows, targets: &Targets) -> Hinge {
+/// The rows `index` as hinge rows with the floors and aims of `targets` (more may be pushed
+/// before [`Hinge::finish`]).
+pub(super) fn hinge_rows(rows: &Rows, targets: &Targets, index: impl IntoIterator<Item = usize>) -> Hinge {
     let mut hinge = Hinge::new();
-    for r in 0..rows.len() {
+    for r in index {
         let entries = rows.vertices[r].iter().copied().zip(rows.coefficients[r].iter().copied());
         hinge.push(entries, rows.g0[r], targets.aim[r], targets.floor[r]);
     }
@@ -124,7 +124,7 @@ pub fn search(rows: Rows, targets: &Targets, u: &mut [f64], budget: &mut Budget,
         return Err(Error::Shape { what: format!("u[{j}] = {} lies outside its bounds", u[j]) });
     }
     opts.install(|| {
-        let hinge = hinge_rows(&rows, targets).finish(n);
+        let hinge = hinge_rows(&rows, targets, 0..m).finish(n);
         let before = budget.iterations;
         let stop = minimise(&mut Shortfall::new(&hinge), u, targets.lo, targets.hi, budget, opts)?;
         let short = if stop == Stop::Done { vec![] } else { hinge.shortfalls(u) };
