@@ -131,11 +131,11 @@ def fit_primal(V, T, w0=None):
     return sol.x * h2, float(np.linalg.norm(sol.fun)), r0
 
 
-def _mesh_row(name, family, V, T, *, nsd, time_limit):
+def _mesh_row(name, family, V, T, *, nsd):
     t0 = time.perf_counter()
     L, M = assembly.operators(V, T, "dual", "circumcentric")
     assembly_s = time.perf_counter() - t0
-    r = regular_weights(V, T, time_limit=time_limit)
+    r = regular_weights(V, T)
     row = {"family": family, "mesh": name, "n_vertices": len(V), "n_tets": len(T),
            "non_delaunay_faces": r.n_violated_plain, "regular": r.regular,
            "status": r.status, "certificate_faces": len(r.certificate_faces),
@@ -185,7 +185,6 @@ def run(out, meshes=None) -> None:
     ``meshes``: a folder of mesh files (the corpus), or None for generated meshes only."""
     folder = meshes
     quick, seed = out.quick, out.seed
-    limit = 10.0 if quick else 60.0
 
     # -- part 1: corpus and generated meshes ----------------------------------------------
     jobs = []
@@ -210,7 +209,7 @@ def run(out, meshes=None) -> None:
                     n_tets=len(T), note=f"skipped: more than {MAX_TETS} tets")
             continue
         try:
-            row = _mesh_row(name, family, V, T, nsd=True, time_limit=limit)
+            row = _mesh_row(name, family, V, T, nsd=True)
         except Exception as e:  # a mesh the solver rejects (flat tets): say so
             row = {"family": family, "mesh": name, "n_vertices": len(V), "n_tets": len(T),
                    "note": f"{type(e).__name__}: {e}"}
@@ -221,7 +220,7 @@ def run(out, meshes=None) -> None:
     for w in progress((0.3,) if quick else (0.1, 0.3, 1.0), desc="shells"):
         for s in range(seed, seed + (1 if quick else 2)):
             V, T, spheres = generate.shell(shell_n, seed=s, weight_scale=w)
-            r = regular_weights(V, T, time_limit=limit)
+            r = regular_weights(V, T)
             out.row(part="shell", family="weighted shell", mesh=f"shell {shell_n} w {w} seed {s}",
                     n_vertices=len(V), n_tets=len(T), weight_scale=w, regular=r.regular,
                     margin=r.margin, non_delaunay_faces=r.n_violated_plain,
@@ -246,7 +245,7 @@ def run(out, meshes=None) -> None:
             if _negative_interior(V, T, "primal") > 0:
                 out.row(part="conjecture", family=base, jitter=a, primal_non_negative=False)
                 continue
-            r = regular_weights(V, T, time_limit=limit)
+            r = regular_weights(V, T)
             w, res, res0 = fit_primal(V, T, r.weights if r.regular else None)
             out.row(part="conjecture", family=base, jitter=a, primal_non_negative=True,
                     n_vertices=len(V), n_tets=len(T), non_delaunay_faces=r.n_violated_plain,

@@ -21,7 +21,7 @@ import dataclasses
 import numpy as np
 
 from .. import _arrays, _core
-from ..errors import DegenerateElementError, ShapeError
+from ..errors import DegenerateElementError, NonFiniteError, ShapeError
 
 __all__ = ["Conditions", "face_margins"]
 
@@ -89,11 +89,16 @@ class Conditions:
         triangles = _face_vertices(T, interior[:, 0], interior[:, 1])
         if len(c["flat"]):
             f = int(c["flat"][0])
-            t1, t2 = int(interior[f, 0]), int(interior[f, 2])
+            pair = [int(interior[f, 0]), int(interior[f, 2])]
+            X = V[T[pair]]
+            E = X[:, 1:] - X[:, :1]
+            relative = np.abs(np.linalg.det(E)) / np.einsum("tij,tij->t", E, E) ** 1.5
+            flat = pair[int(np.argmin(relative))]
             raise DegenerateElementError(
-                f"interior face {triangles[f].tolist()} (tets {t1} and {t2}) has a tet flat to "
-                "double precision on one side: it has no power centre, and regularity needs "
-                "tets of non-zero volume", element=t1)
+                f"tet {flat} is flat to double precision: the interior face "
+                f"{triangles[f].tolist()} between tets {pair[0]} and {pair[1]} has no power "
+                "centre on that side, and regularity needs tets of non-zero volume",
+                element=flat)
         on_boundary = np.zeros(len(V), dtype=bool)
         boundary = c["boundary"]
         on_boundary[_face_vertices(T, boundary[:, 0], boundary[:, 1]).ravel()] = True
@@ -137,5 +142,8 @@ def face_margins(V, T, weights=None) -> np.ndarray:
     """
     V, T = _validated(V, T)
     w = _arrays.vertex_weights(weights, len(V))
+    if w is not None and not np.isfinite(w).all():
+        i = int(np.flatnonzero(~np.isfinite(w))[0])
+        raise NonFiniteError(f"vertex {i} has a non-finite weight {w[i]}", vertex=i)
     cond = Conditions.of(V, T)
     return cond.per_face(cond.margins(np.zeros(len(V)) if w is None else w))

@@ -38,7 +38,8 @@ TARGET_MARGIN = 1e-3
 #: Iterations at one floor before a certificate is looked for and the floor is lowered
 #: (the last floor gets what is left).
 LEVEL_ITERATIONS = 2000
-#: At the first floor, a first look for a certificate after this many iterations.
+#: At the first floor, a first look for a certificate after this many iterations (and the
+#: iterations of the first pass, with boundary weights ``>= 0``).
 CHECKPOINT = 300
 #: Candidate sets for a certificate LP are at most this many faces.
 CERT_MAX_ROWS = 5000
@@ -199,8 +200,8 @@ def _lp(problem: Problem, rows: np.ndarray, budget: Budget) -> np.ndarray | None
     return np.where(res.x > 1e-12, res.x, 0.0)
 
 
-def _certificate(V, T, cond: Conditions, problem: Problem, short: np.ndarray, budget: Budget
-                 ) -> tuple[Certificate | None, int]:
+def _certificate(V, T, cond: Conditions, problem: Problem, short: np.ndarray, budget: Budget,
+                 first: bool = False) -> tuple[Certificate | None, int]:
     """Look for a certificate where the search is stuck: LPs on 2 and 3 rings around each
     of the :data:`CERT_SEEDS` largest shortfalls ``short`` (rows of ``problem``, largest
     first), then on all of them and one ring more (non-regular meshes have small
@@ -209,10 +210,10 @@ def _certificate(V, T, cond: Conditions, problem: Problem, short: np.ndarray, bu
     ``budget.lps`` in all. Each LP's support is checked exactly
     (:func:`.verify.check_certificate`). Returns (the certificate or None, LPs solved)."""
     candidates = []
-    for seed in short[:CERT_SEEDS]:
+    for seed in short[:1 if first else CERT_SEEDS]:
         rows = problem.ring(problem.ring(np.array([seed])))
-        candidates += [rows, problem.ring(rows)]
-    candidates += [short, problem.ring(short)]
+        candidates += [rows] if first else [rows, problem.ring(rows)]
+    candidates += [] if first else [short, problem.ring(short)]
     solved = 0
     for rows in candidates:
         key = np.sort(rows).tobytes()
@@ -283,8 +284,8 @@ def search(V, T, cond: Conditions, problem: Problem, violated: np.ndarray, targe
     worker threads (the result does not depend on them).
 
     First a quadratic lifting (:func:`quadratic`); then boundary weights ``>= 0`` at the
-    target (:data:`LEVEL_ITERATIONS` at most, no certificate: boundary power cells then only
-    grow, which keeps boundary masses); then weights of either sign, at the target, a tenth
+    target (:data:`CHECKPOINT` iterations at most, no certificate: boundary power cells then
+    only grow, which keeps boundary masses); then weights of either sign, at the target, a tenth
     and a hundredth of it, with certificate LPs where the search sticks, and finally any
     positive margin."""
     out = Outcome(status="undecided", u=np.zeros(problem.n))
@@ -298,7 +299,7 @@ def search(V, T, cond: Conditions, problem: Problem, violated: np.ndarray, targe
     if (inward != lo).any():
         u, stop, used, _, _ = _core.regular_search(
             problem.core_rows, (floors, aims, inward, hi), out.u,
-            max(min(budget.iterations, LEVEL_ITERATIONS), 1), seconds=budget.seconds(),
+            max(min(budget.iterations, CHECKPOINT), 1), seconds=budget.seconds(),
             options={"threads": threads})
         budget.iterations = max(budget.iterations - used, 0)
         out.iterations += used
@@ -330,7 +331,8 @@ def search(V, T, cond: Conditions, problem: Problem, violated: np.ndarray, targe
             if stop == "deadline" or budget.late():
                 notes.append(f"stopped at the time limit after {out.iterations} iterations")
                 return out
-            certificate, solved = _certificate(V, T, cond, problem, short, budget)
+            early = stop == "iterations" and checkpoint < iterations
+            certificate, solved = _certificate(V, T, cond, problem, short, budget, first=early)
             out.lps += solved
             if certificate is not None:
                 out.status, out.certificate = "not regular", certificate
