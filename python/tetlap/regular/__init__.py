@@ -198,13 +198,16 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
        orientation signs).
     2. ``w = 0``: when every face is strictly locally Delaunay (checked as in step 5) the
        plain dual is the answer.
-    3. The search (:mod:`~tetlap.regular.search`): projected L-BFGS on the squared
-       shortfall of the faces that are not strictly Delaunay (aim ``target_margin``) and
-       the others (aim ``min(plain margin / 2, target_margin)``), from ``w = 0``, boundary
-       weights ``>= 0`` first (boundary power cells then only grow), then of either sign.
-       Where it sticks, certificate LPs on the faces left short; a certificate found is
-       checked in exact arithmetic (:func:`~tetlap.regular.verify.check_certificate`)
-       before it counts. Else lower floors, then any positive margin.
+    3. The search (:mod:`~tetlap.regular.search`): first a quadratic lifting (structured
+       meshes with cospherical faces are Delaunay in a sheared metric); else projected
+       L-BFGS in the core on the squared shortfall of the faces that are not strictly
+       Delaunay (aim ``target_margin``) and of the others (aim ``min(plain margin / 2,
+       target_margin)``), from ``w = 0``, boundary weights ``>= 0`` for 300 iterations
+       (boundary power cells then only grow), then of either sign. After 300 iterations,
+       and where it sticks, certificate LPs (HiGHS) on the faces left short; a certificate
+       counts only once checked in exact arithmetic
+       (:func:`~tetlap.regular.verify.check_certificate`). Else lower floors, then any
+       positive margin.
     4. The mass step (:mod:`~tetlap.regular.masses`), when ``mass_floor`` is not None.
     5. The check: ``"regular"`` only if the weights make every interior face strictly
        locally regular from both of its tets, by the lifted determinant in float64 against
@@ -212,8 +215,8 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
        (:func:`~tetlap.regular.verify.check_margins`); else ``"undecided"``, the reason in
        the notes.
 
-    When the mesh is not regular (or undecided) the weights are the search's last ones, or
-    0 if those leave more faces not strictly regular than ``w = 0``. Near-flat tets (hull
+    When the mesh is not regular the weights are 0 (the plain dual); when undecided, the
+    search's last ones, or 0 if those leave more faces not strictly regular than ``w = 0``. Near-flat tets (hull
     slivers) may be refused by the core's accuracy rule with the weights found: the counts
     here skip them (``degenerate="skip"``), and so must the operators then.
 
@@ -298,12 +301,12 @@ def _find(V, T, cond: Conditions, settings: Settings, budget: Budget, d: Decisio
     weights, into ``d``."""
     scale = _vertex_scale(V, T)
     problem = Problem.of(cond, scale)
-    violated = d.plain.sign[cond.face[problem.rows]] <= 0
+    sign = d.plain.sign[cond.face[problem.rows]]
     allowed = (np.ones(len(V), dtype=bool) if settings.boundary == "free"
                else ~cond.on_boundary)
     hi = np.where(allowed, float(settings.max_weight), 0.0)
     lo = -hi
-    d.outcome = search.search(V, T, cond, problem, violated, settings.target_margin, lo, hi,
+    d.outcome = search.search(V, T, cond, problem, sign, settings.target_margin, lo, hi,
                               budget, d.notes, settings.threads)
     u = d.outcome.u
     if d.outcome.status == "reached" and settings.mass_floor is not None:
@@ -315,10 +318,11 @@ def _find(V, T, cond: Conditions, settings: Settings, budget: Budget, d: Decisio
                            f"{d.mass_step.deficit:.3g} below {settings.mass_floor:g} x plain "
                            f"after {d.mass_step.rounds} rounds ({d.mass_step.kept} kept)")
     d.certificate = d.outcome.certificate
+    if d.certificate is not None:       # not regular: the plain dual is what is left
+        return
     d.w = u * scale
     d.final = verify.check_margins(V, T, cond.interior, d.w)
-    if (d.outcome.status != "reached" and d.certificate is None
-            and len(d.final.failed) > len(d.plain.failed)):
+    if d.outcome.status != "reached" and len(d.final.failed) > len(d.plain.failed):
         d.notes.append("the search's weights leave more faces not strictly regular than "
                        "w = 0: w = 0")
         d.w, d.final = np.zeros(len(V)), d.plain

@@ -2,15 +2,17 @@
 
 Weights that make the faces regular move the power centres of boundary tets, and the
 signed pieces they cut can make a boundary vertex's cell volume (its circumcentric mass)
-non-positive where the plain one was positive. Every mass is a cubic polynomial of the
-weights (power centres are affine in them). The core's mass step
-(``tetlap._core.regular_masses``) minimises, by projected L-BFGS from the weights the
-search found, the relative deficits of the masses below ``mass_floor`` times their plain
-value, together with the faces' squared shortfall below their floors (measured in units
-of the floor), with exact derivatives of the masses (the tets' reverse derivatives). Every
-point it evaluates is a candidate: the best one whose faces keep half their floors (fewest
-masses lost, then the smallest deficit) is kept when it improves; up to
-:data:`ROUNDS` rounds, each on the tets of the vertices still below the floor.
+non-positive where the plain one was positive. The core's mass step
+(``tetlap._core.regular_masses``, ``tetlap::analysis::regular::keep_masses``) runs rounds
+of: the masses below ``mass_floor`` times their plain value, linearised at the current
+weights (exact derivatives: every tet's reverse derivative), join the faces' squared
+shortfall as hinge rows, minimised by the search's L-BFGS (the faces may give up half of
+their floors); the step is then taken by a line search on the true masses, which are
+cubic polynomials of the weights along it (power centres are affine in them), for the
+fewest masses lost, then the smallest deficit below the floor; a round that does not
+improve confines the next to a tenth of its step. Up to 30 rounds (the core's
+``ROUNDS``) within :data:`MASS_ITERATIONS` iterations. A soft goal: where masses stay lost, the result says
+which (no proof that no weights keep them).
 """
 
 from __future__ import annotations
@@ -22,10 +24,8 @@ import numpy as np
 from .. import _core, assembly
 from .search import Budget, Outcome, Problem
 
-__all__ = ["ROUNDS", "MASS_ITERATIONS", "MassStep", "keep_masses", "circumcentric_masses"]
+__all__ = ["MASS_ITERATIONS", "MassStep", "keep_masses", "circumcentric_masses"]
 
-#: Rounds of the mass step at most (the core's ``ROUNDS``).
-ROUNDS = 8
 #: L-BFGS iterations of the mass step at most (over all rounds).
 MASS_ITERATIONS = 2000
 

@@ -166,13 +166,21 @@ class Outcome:
     certificate: Certificate | None = None
 
 
-def _aims(problem: Problem, violated: np.ndarray, floor: float):
-    """The floors every condition must reach for a margin ``floor`` (the violated faces:
-    ``floor``; the others: half their plain margin if that is smaller) and the aims of the
-    squared shortfall, ``0.1 * floor`` above them, so that the floors are reached in
-    finitely many steps."""
-    floors = np.where(violated, floor, np.minimum(floor, problem.g0 / 2))
-    return floors, floors + 0.1 * floor
+#: Cospherical faces (margin 0 at ``w = 0``, to rounding) only need to leave 0: they aim
+#: for this fraction of the target margin.
+COSPHERICAL = 0.01
+
+
+def _aims(problem: Problem, sign: np.ndarray, floor: float):
+    """The floors every condition must reach for a margin ``floor``, by the sign of its
+    face at ``w = 0`` (``sign`` (c,): -1 violated, 0 cospherical, 1 strictly regular): the
+    violated faces ``floor``, the cospherical ones :data:`COSPHERICAL` times it, the others
+    half their plain margin if that is smaller; and the aims of the squared shortfall, a
+    tenth of their floor above them, so that the floors are reached in finitely many
+    steps."""
+    floors = np.where(sign < 0, floor, np.where(sign == 0, COSPHERICAL * floor,
+                                                np.minimum(floor, problem.g0 / 2)))
+    return floors, floors + 0.1 * floors
 
 
 def _lp(problem: Problem, rows: np.ndarray, budget: Budget) -> np.ndarray | None:
@@ -274,23 +282,25 @@ def quadratic(V, problem: Problem, floors: np.ndarray, aims: np.ndarray, lo: np.
     return u if ok else None
 
 
-def search(V, T, cond: Conditions, problem: Problem, violated: np.ndarray, target: float,
+def search(V, T, cond: Conditions, problem: Problem, sign: np.ndarray, target: float,
            lo: np.ndarray, hi: np.ndarray, budget: Budget, notes: list[str],
            threads: int | None = None) -> Outcome:
     """Weights ``u`` (problem units) with every condition at its floor for the margin
     ``target`` (:func:`_aims`), or a checked certificate that none exist, from ``u = 0``
-    within ``lo <= u <= hi``; ``violated`` (c,) marks the conditions to repair. Spends
+    within ``lo <= u <= hi``; ``sign`` (c,) is the sign of every condition's face at
+    ``w = 0`` (:class:`~tetlap.regular.verify.MarginCheck`, ``<= 0``: to repair). Spends
     ``budget`` (counted down); appends what happened to ``notes``. ``threads``: the core's
     worker threads (the result does not depend on them).
 
-    First a quadratic lifting (:func:`quadratic`); then boundary weights ``>= 0`` at the
-    target (:data:`CHECKPOINT` iterations at most, no certificate: boundary power cells then
-    only grow, which keeps boundary masses); then weights of either sign, at the target, a tenth
-    and a hundredth of it, with certificate LPs where the search sticks, and finally any
+    First a quadratic lifting (:func:`quadratic`), when some faces are cospherical; then
+    boundary weights ``>= 0`` at the target (:data:`CHECKPOINT` iterations at most, no
+    certificate: boundary power cells then only grow, which keeps boundary masses); then
+    weights of either sign, at the target, a tenth and a hundredth of it, with certificate
+    LPs after :data:`CHECKPOINT` iterations and where the search sticks, and finally any
     positive margin."""
     out = Outcome(status="undecided", u=np.zeros(problem.n))
-    floors, aims = _aims(problem, violated, target)
-    u = quadratic(V, problem, floors, aims, lo, hi)
+    floors, aims = _aims(problem, sign, target)
+    u = quadratic(V, problem, floors, aims, lo, hi) if (sign == 0).any() else None
     if u is not None:
         out.status, out.u, out.floor, out.floors, out.aims = "reached", u, target, floors, aims
         notes.append("a quadratic lifting makes it regular (Delaunay in some metric)")
@@ -309,7 +319,7 @@ def search(V, T, cond: Conditions, problem: Problem, violated: np.ndarray, targe
         notes.append("boundary weights >= 0 were not enough: weights of either sign")
     floors_tried = (target, target / 10, target / 100)
     for level, floor in enumerate(floors_tried):
-        floors, aims = _aims(problem, violated, floor)
+        floors, aims = _aims(problem, sign, floor)
         out.floor, out.floors, out.aims = floor, floors, aims
         iterations = budget.iterations // (len(floors_tried) - level)
         if level < len(floors_tried) - 1:          # a stuck search is better off certified early
@@ -344,8 +354,9 @@ def search(V, T, cond: Conditions, problem: Problem, violated: np.ndarray, targe
             return out
         notes.append(f"margin {floor:g} not reached and no certificate: trying a lower one")
     g = problem.margins(out.u)
-    if len(g) and (g[violated] > 0).all():
-        out.floor = float(g[violated].min())
+    repaired = sign <= 0
+    if len(g) and (g[repaired] > 0).all():
+        out.floor = float(g[repaired].min())
         out.floors = np.minimum(out.floors, g)
         notes.append(f"repaired faces kept at margin {out.floor:.3g}, below the floors")
         out.status = "reached"

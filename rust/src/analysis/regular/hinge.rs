@@ -139,7 +139,7 @@ impl Hinge {
 /// (times `|a_r|_1`) of their aim. A row outside it has `aim_r - g_r(u) <= -|a_r|_1 *
 /// reach` there, so it stays above its aim (and its floor) for every `u` with `|u -
 /// reference|_inf < reach`, and `F`, its gradient and the rows below their floors are those
-/// of the working set alone. Sums run over the working set in row order (fixed chunks).
+/// of the working set alone. Sums run over the rows in order, by fixed chunks.
 pub struct Shortfall<'h> {
     hinge: &'h Hinge,
     below: usize,
@@ -148,7 +148,7 @@ pub struct Shortfall<'h> {
     /// The reference point, the working rows (ascending) and how far from the reference
     /// they stay exact.
     reference: Vec<f64>,
-    working: Vec<u32>,
+    in_working: Vec<bool>,
     reach: f64,
     /// The variables of the working rows.
     touched: Vec<bool>,
@@ -167,7 +167,7 @@ impl<'h> Shortfall<'h> {
             below: usize::MAX,
             norm1,
             reference: vec![],
-            working: vec![],
+            in_working: vec![false; hinge.len()],
             reach: 0.0,
             touched: vec![],
             weighted: vec![0.0; hinge.len()],
@@ -179,16 +179,18 @@ impl<'h> Shortfall<'h> {
         let h = self.hinge;
         let g = h.values(u);
         let slack: Vec<f64> = (0..h.len()).map(|r| (g[r] - h.aim[r]) / self.norm1[r]).collect();
-        for &r in &self.working {
-            self.weighted[r as usize] = 0.0;
+        for r in 0..h.len() {
+            self.in_working[r] = slack[r].is_nan() || slack[r] <= REACH;
+            if !self.in_working[r] {
+                self.weighted[r] = 0.0;
+            }
         }
-        self.working = (0..h.len() as u32).filter(|&r| !(slack[r as usize] > REACH)).collect();
         // the reach: how far u may move with every other row still above its aim
         self.reach = slack.iter().filter(|&&s| s > REACH).fold(f64::INFINITY, |a, &s| a.min(s));
         self.reference = u.to_vec();
         self.touched = vec![false; u.len()];
-        for &r in &self.working {
-            h.cols[h.indptr[r as usize]..h.indptr[r as usize + 1]].iter().for_each(|&j| self.touched[j as usize] = true);
+        for r in (0..h.len()).filter(|&r| self.in_working[r]) {
+            h.cols[h.indptr[r]..h.indptr[r + 1]].iter().for_each(|&j| self.touched[j as usize] = true);
         }
     }
 }
@@ -200,38 +202,37 @@ impl Objective for Shortfall<'_> {
         } else {
             u.iter().zip(&self.reference).fold(0.0f64, |a, (x, y)| a.max((x - y).abs()))
         };
-        if !(distance < self.reach) {
+        if distance.is_nan() || distance >= self.reach {
             self.refer(u);
         }
         let h = self.hinge;
-        let working = &self.working;
-        // the working rows' weighted shortfalls, by chunks: (F, rows below the floor)
-        let chunk = |rows: &[u32]| -> (Vec<f64>, f64, usize) {
-            let (mut values, mut f, mut below) = (Vec::with_capacity(rows.len()), 0.0, 0);
-            for &r in rows {
-                let r = r as usize;
+        let in_working = &self.in_working;
+        // every working row's weighted shortfall in its slot, by chunks: (F, rows below floor)
+        let chunk = |(c, out): (usize, &mut [f64])| -> (f64, usize) {
+            let (mut f, mut below) = (0.0, 0);
+            for (k, slot) in out.iter_mut().enumerate() {
+                let r = c * CHUNK + k;
+                if !in_working[r] {
+                    continue;
+                }
                 let g = h.g0[r] + (h.indptr[r]..h.indptr[r + 1]).map(|p| h.coef[p] * u[h.cols[p] as usize]).sum::<f64>();
                 below += usize::from(g < h.floor[r]);
                 let short = h.aim[r] - g;
-                let weighted = if short > 0.0 { h.wgt[r] * short } else { 0.0 };
-                f += 0.5 * short.max(0.0) * weighted;
-                values.push(weighted);
+                *slot = if short > 0.0 { h.wgt[r] * short } else { 0.0 };
+                f += 0.5 * short.max(0.0) * *slot;
             }
-            (values, f, below)
+            (f, below)
         };
-        let parts: Vec<(Vec<f64>, f64, usize)> = if working.len() <= CHUNK {
-            working.chunks(CHUNK).map(chunk).collect()
+        let parts: Vec<(f64, usize)> = if h.len() <= CHUNK {
+            self.weighted.chunks_mut(CHUNK).enumerate().map(chunk).collect()
         } else {
-            working.par_chunks(CHUNK).map(chunk).collect()
+            self.weighted.par_chunks_mut(CHUNK).enumerate().map(chunk).collect()
         };
-        for (&r, &x) in working.iter().zip(parts.iter().flat_map(|p| &p.0)) {
-            self.weighted[r as usize] = x;
-        }
-        self.below = parts.iter().map(|p| p.2).sum();
+        self.below = parts.iter().map(|p| p.1).sum();
         // the gradient, -sum_r weighted_r a_r, gathered per variable in row order
         let (weighted, touched) = (&self.weighted, &self.touched);
         fill(grad, |j| if touched[j] { h.gather(j, weighted) } else { 0.0 });
-        parts.iter().map(|p| p.1).sum()
+        parts.iter().map(|p| p.0).sum()
     }
 
     fn done(&self) -> bool {
@@ -296,3 +297,4 @@ mod tests {
         assert!(total.iter().all(|t| t.abs() < 1e-4 * scale), "{total:?}");
     }
 }
+

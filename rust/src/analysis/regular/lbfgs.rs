@@ -158,7 +158,7 @@ pub fn minimise(
                     break;
                 }
                 let f_trial = objective.eval(&trial, &mut trial_grad);
-                if !(f_trial <= f + ARMIJO * decrease) {
+                if f_trial.is_nan() || f_trial > f + ARMIJO * decrease {
                     upper = t;
                 } else if dot(&trial_grad, &step) < WOLFE * decrease && !objective.done() {
                     lower = t;
