@@ -1,277 +1,208 @@
-"""Regular weights (issue 16): tetlap.regular.regular_weights, face_margins (the `info`
-summary of them is tested in test_info.py)."""
+"""tetlap.regular.regular_weights end to end (issues 16, 23): every answer checked here
+independently of the search that made it, by the dense LP oracle of
+test_regular_examples, by face margins at random weights, or by the weighted dual."""
 
 from __future__ import annotations
 
-import doctest
+import time
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import tetlap
-import tetlap.regular as regular
-from tetlap.diagnostics import interior_faces, non_delaunay_faces
+from tetlap.diagnostics import interior_faces
 from tetlap.regular import face_margins, regular_weights
 
 from conftest import corpus_mesh
-
-
-def power_center(X, w):
-    """Point with equal power |c - x|^2 - w to the 4 corners X (4, 3)."""
-    A = 2 * (X[1:] - X[0])
-    rhs = ((X[1:] - X[0]) ** 2).sum(axis=1) + w[0] - w[1:]
-    return X[0] + np.linalg.solve(A, rhs)
-
-
-def weighted_points(seed, n=250, scale=0.05):
-    rng = np.random.default_rng(seed)
-    P = rng.uniform(-1, 1, size=(n, 3))
-    w = rng.uniform(0, scale, size=n)
-    T = tetlap.meshes.regular_triangulation(P, w)
-    return tetlap.meshes.compact(P, T, w)
+from test_regular_examples import (best_margin, mother, three_on_a_face, twisted_prism,
+                                   weighted_points)
 
 
 def interior_dual_weights(V, T, w):
+    """The weighted dual's weights on edges not both on the boundary, and its scale."""
     edges, weights = tetlap.edge_weights(V, T, "dual", weights=w)
     b = tetlap.diagnostics.boundary_vertices(T, len(V))
     return weights[~(b[edges[:, 0]] & b[edges[:, 1]])], np.abs(weights).max()
 
 
-def test_margin_is_the_signed_dual_edge_length_over_the_face_size(rng):
-    V, T = tetlap.meshes.weighted_ball(300, 1.0, seed=3)
-    w = rng.uniform(-0.01, 0.01, size=len(V))
-    g = face_margins(V, T, w)
+def certificate_holds(V, T, faces, y, rng) -> bool:
+    """A Gordan certificate, checked with face_margins alone: the faces are interior
+    faces of the mesh and ``sum_f y_f margin_f(w)`` is 0 at random weights (to rounding:
+    relative to the terms, or absolutely for margins, which are dimensionless, that are
+    all 0 to rounding), so some face of the set has margin <= 0 whatever the weights."""
     tets, opposite = interior_faces(T)
-    for f in rng.choice(len(g), size=20, replace=False):
-        c1 = power_center(V[T[tets[f, 0]]], w[T[tets[f, 0]]])
-        c2 = power_center(V[T[tets[f, 1]]], w[T[tets[f, 1]]])
-        face = [k for k in T[tets[f, 0]] if k != opposite[f, 0]]
-        F = V[face]
-        n = np.cross(F[1] - F[0], F[2] - F[0])
-        n *= np.sign(n @ (V[opposite[f, 1]] - F[0])) / np.linalg.norm(n)
-        rms = np.sqrt(((F - np.roll(F, 1, axis=0)) ** 2).sum(axis=1).mean())
-        assert g[f] == pytest.approx((c2 - c1) @ n / rms, rel=1e-9, abs=1e-12)
-        assert np.linalg.norm(np.cross(c2 - c1, n)) < 1e-9  # the dual edge is orthogonal
+    T = np.asarray(T)
+    keys = {tuple(sorted(set(T[t]) - {o})): k for k, (t, o) in enumerate(zip(tets[:, 0],
+                                                                            opposite[:, 0]))}
+    ids = [keys[tuple(sorted(f))] for f in faces.tolist()]
+    assert len(set(ids)) == len(ids) and (y > 0).all()
+    edges = tetlap.diagnostics.mesh_edges(T)
+    scale = np.mean(np.sum((V[edges[:, 0]] - V[edges[:, 1]]) ** 2, axis=1))
+    for w in [np.zeros(len(V))] + [rng.normal(size=len(V)) * scale for _ in range(3)]:
+        g = face_margins(V, T, w)[ids]
+        assert abs(y @ g) <= 1e-8 * (y @ np.abs(g)) + 1e-13 * y.sum()
+    return True
 
 
-def test_zero_weights_margin_sign_is_the_delaunay_test():
-    V, T = tetlap.meshes.weighted_ball(500, 1.0, seed=1)
-    g = face_margins(V, T)
-    np.testing.assert_array_equal(g < 0, non_delaunay_faces(V, T))
-    assert (g < 0).sum() > 20
-
-
-@pytest.mark.parametrize("seed", [0, 1])
-def test_regular_triangulations_are_recognised(seed):
-    V, T, w_true = weighted_points(seed)
-    assert face_margins(V, T, w_true).min() > 0  # the generating weights certify it
+@pytest.mark.parametrize("apexes", [1, 2])
+@pytest.mark.parametrize("twist", [0.0, 1e-6, 0.1, -1e-6, -0.1])
+def test_the_mother_of_all_examples_is_decided_right(twist, apexes, rng):
+    V, T = mother(twist, apexes)
     r = regular_weights(V, T)
-    assert r.regular and r.margin > 0 and len(r.violated_faces) == 0
-    assert r.n_violated_plain > 0 and r.n_negative_interior_plain > 0
-    inner, scale = interior_dual_weights(V, T, r.weights)
-    assert inner.min() >= -1e-12 * scale
-    assert r.n_negative_interior_weighted == 0
-    L, M = tetlap.operators(V, T, "dual", "circumcentric", weights=r.weights)
-    rep = tetlap.check(L, V, T, M, nsd=False)
-    assert rep.linear_precision_ok and rep.symmetric
-    # (not NSD in general: the convex hull's slivers give negative boundary weights)
-    # masses: reported exactly; a few boundary cells may be lost (the generating weights
-    # themselves lose one of seed 1's), never many
-    m0 = tetlap.mass(V, T, "circumcentric").diagonal()
-    np.testing.assert_array_equal(r.masses_lost, np.flatnonzero((m0 > 0) & (M.diagonal() <= 0)))
-    assert len(r.masses_lost) <= 0.01 * len(V)
+    regular = best_margin(V, T) > 1e-9
+    assert r.status == ("regular" if regular else "not regular")
+    if regular:
+        assert face_margins(V, T, r.weights).min() > 0
+    else:
+        assert r.certificate_kind == "gordan" and not r.regular
+        assert certificate_holds(V, T, r.certificate_faces, r.certificate_multipliers, rng)
 
 
-@settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@pytest.mark.parametrize("twist", [0.3, 0.1, -0.1, -0.3])
+def test_twisted_prisms_are_decided_right(twist, rng):
+    V, T = twisted_prism(twist)
+    r = regular_weights(V, T)
+    assert r.regular == (best_margin(V, T) > 1e-9)
+    if not r.regular:
+        assert r.status == "not regular" and r.certificate_kind == "gordan"
+        assert certificate_holds(V, T, r.certificate_faces, r.certificate_multipliers, rng)
+
+
+def test_three_tets_on_one_face_are_not_regular():
+    V, T = three_on_a_face()
+    r = regular_weights(V, T)
+    assert r.status == "not regular" and r.certificate_kind == "non-manifold"
+    assert r.certificate_faces.tolist() == [[0, 1, 2]] and r.n_nonmanifold == 1
+    # each pair of tets alone is a triangulation: the overlapping pair is folded
+    for pair, kind in (([0, 1], None), ([0, 2], "folded"), ([1, 2], None)):
+        assert regular_weights(V, T[pair]).certificate_kind == kind
+
+
+def test_folded_and_duplicate_tets_are_not_regular():
+    V, T = tetlap.meshes.ball(300, seed=4)
+    # a repeated tet: its faces have three tets, or two on one side
+    r = regular_weights(V, np.vstack([T, T[:1, ::-1]]))
+    assert r.status == "not regular" and r.certificate_kind in ("non-manifold", "folded")
+    # move one interior vertex far through a face: its tets overlap others
+    inner = np.flatnonzero(tetlap.diagnostics.interior_vertices(T, len(V)))
+    i = inner[0]
+    neighbour = T[(T == i).any(axis=1)]
+    far = neighbour[neighbour != i][0]
+    V2 = V.copy()
+    V2[i] = V[i] + 1.6 * (V[far] - V[i])
+    for mesh in [(V2, T)]:
+        r = regular_weights(*mesh)
+        assert r.status == "not regular" and r.certificate_kind == "folded"
+        assert r.n_folded == len(r.certificate_faces) > 0 and r.margin <= 0
+        # independently: both tets of a certificate face lie on one side of it
+        tets, opposite = interior_faces(mesh[1])
+        for f in r.certificate_faces:
+            k = [j for j in range(len(tets)) if set(mesh[1][tets[j, 0]]) - {opposite[j, 0]}
+                 == set(f.tolist())][0]
+            X = mesh[0][f]
+            n = np.cross(X[1] - X[0], X[2] - X[0])
+            assert np.sign(n @ (mesh[0][opposite[k, 0]] - X[0])) == np.sign(
+                n @ (mesh[0][opposite[k, 1]] - X[0]))
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 10**6), scale=st.sampled_from([0.01, 0.05, 0.2]))
 def test_random_regular_triangulations(seed, scale):
+    # hull slivers kept: the generating weights certify the mesh, and so must ours
     V, T, w_true = weighted_points(seed, n=80, scale=scale)
-    try:  # the hull of random points has slivers the core refuses even with w_true
-        tetlap.edge_weights(V, T, "dual", weights=w_true)
-    except tetlap.DegenerateElementError:
-        assume(False)
+    assert face_margins(V, T, w_true).min() > 0
     r = regular_weights(V, T)
-    assert r.regular and r.status == "regular"
+    assert r.status == "regular" and r.margin > 0
+    assert face_margins(V, T, r.weights).min() > 0
     inner, s = interior_dual_weights(V, T, r.weights)
     assert inner.min() >= -1e-12 * s
     np.testing.assert_allclose(r.face_margins, face_margins(V, T, r.weights))
 
 
-def test_delaunay_meshes_are_regular_at_zero_weights():
-    V, T = tetlap.meshes.ball(600, seed=2)
+def test_a_regular_triangulation_and_its_weighted_dual():
+    V, T, _ = weighted_points(0, n=250)
     r = regular_weights(V, T)
-    assert r.status == "regular" and r.margin > 0 and r.lp_count == 0
-    assert not r.weights.any()
-    # a Kuhn grid: cospherical faces, margin 0 to rounding, still regular
-    V, T = tetlap.meshes.cube(4)
+    assert r.regular and len(r.violated_faces) == 0 and r.n_violated_plain > 0
+    assert r.n_negative_interior_plain > 0 == r.n_negative_interior_weighted
+    inner, scale = interior_dual_weights(V, T, r.weights)
+    assert inner.min() >= -1e-12 * scale
+    L, M = tetlap.operators(V, T, "dual", "circumcentric", weights=r.weights)
+    report = tetlap.check(L, V, T, M, nsd=False)
+    assert report.linear_precision_ok and report.symmetric
+    m0 = tetlap.mass(V, T, "circumcentric").diagonal()
+    np.testing.assert_array_equal(r.masses_lost, np.flatnonzero((m0 > 0) & (M.diagonal() <= 0)))
+
+
+def test_delaunay_and_cospherical_meshes():
+    V, T = tetlap.meshes.ball(600, seed=2)       # strictly Delaunay: w = 0
     r = regular_weights(V, T)
-    assert r.regular and abs(r.margin) < 1e-9 and not r.weights.any()
-
-
-def mother_of_all_examples(twist_deg):
-    """The classic non-regular planar triangulation (an inner triangle inside an outer
-    one, the three quads between split cyclically), coned to an apex above and below:
-    8 vertices, 14 tets. A twist of -10 degrees makes it Delaunay; +10 degrees makes it
-    non-regular (checked independently by a full LP in the test)."""
-    a = np.radians([90.0, 210.0, 330.0])
-    outer = np.column_stack([np.cos(a), np.sin(a)])
-    b = a + np.radians(twist_deg)
-    inner = 0.35 * np.column_stack([np.cos(b), np.sin(b)])
-    tris = [[3, 4, 5]]
-    for k in range(3):
-        tris += [[k, (k + 1) % 3, 3 + (k + 1) % 3], [k, 3 + (k + 1) % 3, 3 + k]]
-    V = np.vstack([np.column_stack([np.vstack([outer, inner]), np.zeros(6)]),
-                   [[0, 0, 1.0], [0, 0, -1.0]]])
-    T = np.array([t + [6] for t in tris] + [t + [7] for t in tris])
-    return V, tetlap.meshes.orient(V, T)
-
-
-def best_margin_by_full_lp(V, T, box=10.0):
-    """Independent check: the largest smallest margin over all faces, by one dense LP
-    whose rows come from face_margins (linear in w) evaluated at unit weights."""
-    from scipy.optimize import linprog
-
-    n = len(V)
-    g0 = face_margins(V, T)
-    G = np.column_stack([face_margins(V, T, np.eye(n)[i]) - g0 for i in range(n)])
-    c = np.zeros(n + 1)
-    c[-1] = -1.0
-    res = linprog(c, A_ub=np.hstack([-G, np.ones((len(g0), 1))]), b_ub=g0,
-                  bounds=[(-box, box)] * n + [(None, 1.0)])
-    return res.x[-1]
-
-
-def certificate_holds(V, T, faces, y, rng):
-    """Independent check of a Gordan certificate: the faces are interior faces of the mesh
-    and the combination ``sum_f y_f margin_f(w)`` of their margins (from face_margins,
-    which is linear in w) is the same, 0, at random weights: then some face of the set
-    has margin <= 0 whatever w."""
-    all_faces = {tuple(sorted(f)): k for k, f in enumerate(interior_face_vertices(T))}
-    ids = [all_faces[tuple(sorted(f))] for f in faces.tolist()]
-    assert len(set(ids)) == len(ids) and (y > 0).all()
-    h = tetlap.diagnostics.mesh_edges(T)
-    scale = np.mean(np.sum((V[h[:, 0]] - V[h[:, 1]]) ** 2, axis=1))
-    for w in [np.zeros(len(V))] + [rng.normal(size=len(V)) * scale for _ in range(3)]:
-        g = face_margins(V, T, w)[ids]
-        assert abs(y @ g) <= 1e-8 * (y @ np.abs(g))
-    return True
-
-
-def interior_face_vertices(T):
-    """(f, 3) vertices of every interior face, order of interior_faces."""
-    tets, opposite = interior_faces(T)
-    T = np.asarray(T)
-    return np.array([[k for k in T[t] if k != o] for t, o in zip(tets[:, 0], opposite[:, 0])])
-
-
-def test_a_hand_built_non_regular_mesh_is_reported(rng):
-    V, T = mother_of_all_examples(-10.0)
+    assert r.status == "regular" and r.margin > 0 and not r.weights.any() and r.lp_count == 0
+    # a Kuhn grid: every cube's faces cospherical, margin 0 at w = 0, so w = 0 is not a
+    # proof; a quadratic lifting is (the grid is Delaunay in a sheared metric)
+    V, T = tetlap.meshes.cube(6)
     r = regular_weights(V, T)
-    assert r.regular and r.margin_plain > 0          # this twist is Delaunay
-    V, T = mother_of_all_examples(10.0)
-    assert best_margin_by_full_lp(V, T) < 1e-9       # no weights give a positive margin
-    r = regular_weights(V, T)
-    assert not r.regular and r.status == "not regular"
-    assert r.margin < 0 and len(r.violated_faces) >= 1
-    assert len(r.violated_faces) <= r.n_violated_plain
-    assert r.certificate_residual < 1e-8
-    assert certificate_holds(V, T, r.certificate_faces, r.certificate_multipliers, rng)
+    assert r.n_cospherical_plain > 0 and r.margin_plain == pytest.approx(0, abs=1e-12)
+    assert r.status == "regular" and r.weights.any() and r.iterations == 0
+    assert face_margins(V, T, r.weights).min() > 0
 
 
-def test_a_corpus_mesh_named_in_the_issue_is_proved_non_regular(rng):
-    V, T = corpus_mesh("libigl_octopus_low.mesh")
-    r = regular_weights(V, T, time_limit=60)
-    assert r.status == "not regular" and r.n_folded == 0
-    assert 0 < len(r.certificate_faces) < r.n_violated_plain
-    assert certificate_holds(V, T, r.certificate_faces, r.certificate_multipliers, rng)
-
-
-def test_budget_exhausted_is_undecided():
+def test_budgets_count_work_and_the_time_limit_holds():
     V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)   # regular, needs iterations
     r = regular_weights(V, T, max_iterations=1)
-    assert r.status == "undecided" and not r.regular
-    assert len(r.certificate_faces) == 0 and len(r.violated_faces) > 0
-    assert any("max_iterations" in note for note in r.notes)
-    # never worse than w = 0
-    assert len(r.violated_faces) <= r.n_violated_plain
+    assert r.status == "undecided" and not r.regular and len(r.certificate_faces) == 0
+    assert any("iteration budget" in note for note in r.notes)
+    assert len(r.violated_faces) <= r.n_violated_plain + r.n_cospherical_plain
     r = regular_weights(V, T, time_limit=1e-9)
     assert r.status == "undecided" and any("time limit" in note for note in r.notes)
 
 
-@pytest.mark.parametrize("s", [1e-3, 1e3])
-def test_status_and_margin_are_scale_invariant(s):
-    """The margin and its round-off tolerance are scale-free: V -> s V, w -> s^2 w
-    changes neither the verdict nor the margin (nor the weights beyond s^2)."""
-    V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=7)
-    r = regular_weights(V, T, mass_floor=None)
-    r2 = regular_weights(s * V, T, mass_floor=None)
-    assert (r2.status, r2.n_violated_plain) == (r.status, r.n_violated_plain) == (
-        "regular", r.n_violated_plain)
-    assert r2.margin == pytest.approx(r.margin, rel=1e-6)
-    np.testing.assert_allclose(r2.face_margins, r.face_margins, atol=1e-9)
-    np.testing.assert_allclose(face_margins(s * V, T, s**2 * r.weights), r.face_margins,
-                               atol=1e-9)
-    np.testing.assert_allclose(r2.weights, s**2 * r.weights,
-                               atol=1e-6 * s**2 * np.abs(r.weights).max())
-    # the mass step is an infeasible hinge problem whose path changes with the last bit of
-    # V (so with s = 1e3): the verdict holds; powers of two give the same bits
-    r, r2 = regular_weights(V, T), regular_weights(s * V, T)
-    assert r2.status == r.status == "regular" and r2.margin > 0
-    b = 2.0 ** np.round(np.log2(s))
-    rb = regular_weights(b * V, T)
-    assert rb.margin == r.margin
-    np.testing.assert_array_equal(rb.weights, b**2 * r.weights)
-    # the Kuhn grid's cospherical faces (margin 0 to rounding) stay regular at any scale
-    V, T = tetlap.meshes.cube(3)
-    assert regular_weights(s * V, T).status == "regular"
-
-
-def test_folded_faces_are_never_regular():
-    V, T = tetlap.meshes.ball(300, seed=4)
-    # move one interior vertex far through a face: its tets overlap others (folded)
-    inner = np.flatnonzero(tetlap.diagnostics.interior_vertices(T, len(V)))
-    tets, opposite = interior_faces(T)
-    V2 = V.copy()
-    i = inner[0]
-    nb = T[(T == i).any(axis=1)]
-    far = nb[nb != i][0]
-    V2[i] = V[i] + 1.6 * (V[far] - V[i])
-    r = regular_weights(V2, T)
-    assert r.n_folded > 0 and not r.regular and r.margin <= 0
-
-
 @pytest.mark.slow
-def test_invariance_under_rigid_motions_and_scaling(rng):
-    V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=7)
-    r = regular_weights(V, T)
-    Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
-    s = 37.5
-    V2 = s * V @ Q.T + rng.normal(size=3) * 10
-    r2 = regular_weights(V2, T)
-    assert r2.regular == r.regular
-    assert (r2.status, r2.n_violated_plain) == (r.status, r.n_violated_plain)
-    assert r2.margin_plain == pytest.approx(r.margin_plain, rel=1e-8)
-    # the search's path may differ by rounding (a rotation changes every coordinate);
-    # whatever weights it finds, the moved weights certify the moved mesh and back
-    np.testing.assert_allclose(face_margins(V2, T, s**2 * r.weights), r.face_margins,
-                               atol=1e-8)
-    np.testing.assert_allclose(face_margins(V, T, r2.weights / s**2), r2.face_margins,
-                               atol=1e-8)
-    assert r2.margin > 0
+def test_a_time_limit_holds_on_a_big_mesh_set_up_included():
+    # issue 24: time_limit=0.5 took 2.5 s on 223k tets (the set-up was not counted); the
+    # rest after the limit is the report: two assemblies of the dual and their checks
+    # (the machine's speed is measured around the call, so that load during it counts)
+    V, T = tetlap.meshes.weighted_ball(40000, 1.0, seed=0)
+
+    def assembly_seconds():
+        start = time.perf_counter()
+        tetlap.operators(V, T, "dual", "circumcentric")
+        return time.perf_counter() - start
+
+    before = assembly_seconds()
+    start = time.perf_counter()
+    r = regular_weights(V, T, time_limit=0.5)
+    elapsed = time.perf_counter() - start
+    assembly = max(before, assembly_seconds())
+    assert r.status == "undecided"
+    assert elapsed < 0.5 + 8 * assembly + 1.0, (elapsed, assembly)
 
 
-def test_deterministic_and_inputs_untouched():
+def test_deterministic_for_any_thread_count_and_inputs_untouched():
     V, T = tetlap.meshes.weighted_ball(300, 0.5, seed=9)
     V0, T0 = V.copy(), T.copy()
-    a, b = regular_weights(V, T), regular_weights(V, T)
+    a, b = regular_weights(V, T, threads=1), regular_weights(V, T, threads=2)
     np.testing.assert_array_equal(a.weights, b.weights)
+    assert (a.status, a.iterations, a.notes) == (b.status, b.iterations, b.notes)
     np.testing.assert_array_equal(V, V0)
     np.testing.assert_array_equal(T, T0)
 
 
-def test_bad_input_raises_tetlap_errors():
+@pytest.mark.parametrize("s", [1e-3, 1e3])
+def test_status_and_margins_are_scale_invariant(s):
+    V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=7)
+    r, r2 = regular_weights(V, T, mass_floor=None), regular_weights(s * V, T, mass_floor=None)
+    assert r2.status == r.status == "regular" and r2.n_violated_plain == r.n_violated_plain
+    np.testing.assert_allclose(face_margins(s * V, T, s**2 * r.weights), r.face_margins,
+                               atol=1e-9)
+    # powers of two scale the weights bitwise
+    b = 2.0 ** np.round(np.log2(s))
+    rb = regular_weights(b * V, T)
+    np.testing.assert_array_equal(rb.weights, b**2 * regular_weights(V, T).weights)
+
+
+def test_bad_input_and_options_raise_tetlap_errors():
     V, T = tetlap.meshes.ball(100, seed=0)
     with pytest.raises(tetlap.ShapeError):
         regular_weights(V[:, :2], T)
@@ -281,16 +212,17 @@ def test_bad_input_raises_tetlap_errors():
         regular_weights(V2, T)
     with pytest.raises(tetlap.IndexRangeError):
         regular_weights(V, np.vstack([T, [[0, 1, 2, len(V)]]]))
-    with pytest.raises(tetlap.OptionError):
-        regular_weights(V, T, target_margin=-1)
-    with pytest.raises(tetlap.OptionError):
-        regular_weights(V, T, boundary="fixed")
-    with pytest.raises(tetlap.OptionError):
-        regular_weights(V, T, time_limit=0)
-    with pytest.raises(tetlap.OptionError):
-        regular_weights(V, T, max_iterations=0)
-    with pytest.raises(tetlap.ShapeError):
-        face_margins(V, T, np.zeros(3))
+    with pytest.raises(tetlap.RepeatedVertexError):
+        regular_weights(V, np.vstack([T, [[0, 1, 2, 2]]]))
+    flat = np.vstack([V, (V[T[0, 0]] + V[T[0, 1]] + V[T[0, 2]]) / 3])
+    with pytest.raises(tetlap.DegenerateElementError, match="flat"):
+        regular_weights(flat, np.vstack([T, [[T[0, 0], T[0, 1], T[0, 2], len(V)]]]))
+    for bad in [dict(target_margin=-1), dict(target_margin=np.nan), dict(boundary="fixed"),
+                dict(mass_floor=1.0), dict(max_weight=0), dict(time_limit=0),
+                dict(time_limit=np.inf), dict(max_iterations=0), dict(max_iterations=2.5),
+                dict(threads=0)]:
+        with pytest.raises(tetlap.OptionError):
+            regular_weights(V, T, **bad)
 
 
 def test_boundary_zero_keeps_boundary_weights_at_zero():
@@ -302,105 +234,61 @@ def test_boundary_zero_keeps_boundary_weights_at_zero():
         assert r.n_negative_interior_weighted == 0
 
 
-@pytest.mark.slow
-def test_masses_stay_positive_where_the_plain_ones_are():
-    V, T = tetlap.meshes.weighted_ball(500, 1.0, seed=4)
-    r = regular_weights(V, T)
+def test_masses_are_kept_on_a_weighted_ball():
+    V, T = tetlap.meshes.weighted_ball(1000, 0.3, seed=1)
+    r, r0 = regular_weights(V, T), regular_weights(V, T, mass_floor=None)
+    assert r.regular and r.n_negative_interior_weighted == 0
     m0 = tetlap.mass(V, T, "circumcentric").diagonal()
     m = tetlap.mass(V, T, "circumcentric", weights=r.weights).diagonal()
     np.testing.assert_array_equal(np.flatnonzero((m0 > 0) & (m <= 0)), r.masses_lost)
-    assert len(r.masses_lost) == 0
+    assert len(r0.masses_lost) > 0 == len(r.masses_lost)     # the mass step keeps them all
     # interior cells of a regular mesh are convex polytopes: positive
-    inner = tetlap.diagnostics.interior_vertices(T, len(V))
-    assert (m[inner] > 0).all()
+    assert (m[tetlap.diagnostics.interior_vertices(T, len(V))] > 0).all()
 
 
-def test_mass_step_line_search_keeps_the_masses():
-    # the mass step used to take its linearised steps whole and rejected every round here
-    # (7 masses lost); the line search on the true masses keeps them all
-    V, T = tetlap.meshes.weighted_ball(1000, 1.0, seed=1)
-    r = regular_weights(V, T)
-    assert r.regular and r.margin > 0 and r.n_negative_interior_weighted == 0
-    m0 = tetlap.mass(V, T, "circumcentric").diagonal()
-    m = tetlap.mass(V, T, "circumcentric", weights=r.weights).diagonal()
-    np.testing.assert_array_equal(np.flatnonzero((m0 > 0) & (m <= 0)), r.masses_lost)
-    assert len(r.masses_lost) == 0 and len(r.masses_lost_tets) == 0
-
-
-def test_masses_are_cubic_along_a_segment_of_weights(rng):
-    # what the line search of the mass step relies on: power centres are affine in w
-    V, T = tetlap.meshes.weighted_ball(200, 1.0, seed=5)
-    w0, w1 = (rng.uniform(-0.005, 0.005, size=len(V)) for _ in range(2))
-    ts = np.array([0, 1 / 3, 2 / 3, 1])
-    M = np.stack([regular._masses(V, T, w0 + t * (w1 - w0)) for t in ts])
-    C = np.linalg.solve(np.vander(ts, 4, increasing=True), M)
-    for t in (0.1, 0.5, 0.9):
-        np.testing.assert_allclose(np.vander([t], 4, increasing=True)[0] @ C,
-                                   regular._masses(V, T, w0 + t * (w1 - w0)),
-                                   rtol=0, atol=1e-12 * np.abs(M).max())
-
-
-def test_lost_masses_are_explained(rng):
-    V, T = tetlap.meshes.weighted_ball(200, 1.0, seed=5)
-    on_b = tetlap.diagnostics.boundary_vertices(T, len(V))
-    w = rng.uniform(-0.05, 0.05, size=len(V))
-    m0 = tetlap.mass(V, T, "circumcentric").diagonal()
-    m = regular._masses(V, T, w)
-    lost = np.flatnonzero((m0 > 0) & (m <= 0))
-    assert len(lost)
-    tets, note = regular._why_masses_lost(V, T, w, lost, np.zeros(len(T), dtype=bool), on_b)
-    assert len(tets) == len(lost) and f"{len(lost)} positive plain masses" in note
-    for v, t in zip(lost, tets):
-        assert v in T[t]
-
-
-def test_mass_jacobian_matches_finite_differences(rng):
-    V, T = tetlap.meshes.weighted_ball(200, 1.0, seed=5)
-    w = rng.uniform(-0.005, 0.005, size=len(V))
-    rows = np.array([3, 10, 50])
-    J = regular._mass_jacobian(V, T, w, rows).toarray()
-    h = 1e-6
-    for j in np.flatnonzero(np.abs(J).sum(axis=0) > 0)[:10]:
-        e = np.zeros(len(V))
-        e[j] = h
-        d = (tetlap.mass(V, T, "circumcentric", weights=w + e).diagonal()
-             - tetlap.mass(V, T, "circumcentric", weights=w - e).diagonal()) / (2 * h)
-        np.testing.assert_allclose(J[:, j], d[rows], rtol=1e-5, atol=1e-9)
-
-
-@pytest.mark.slow
-def test_doctests():
-    result = doctest.testmod(regular, optionflags=doctest.ELLIPSIS)
-    assert result.attempted >= 5 and result.failed == 0
-
-
-CORPUS = {"flipfree_fish_blub.mesh": True, "sofa_raptor_8418.vtu": True,
-          "libigl_octopus_low.mesh": False, "polyfem_microstructure_p1.msh": False}
+#: Every corpus mesh and its decision (checked independently in the test).
+CORPUS = {
+    "flipfree_armadillo_74k.mesh": "regular", "flipfree_fish_blub.mesh": "regular",
+    "flipfree_monkey_87k.mesh": "regular", "flipfree_octopus_vol.mesh": "regular",
+    "freefem_cube_th.mesh": "regular", "fvca8_cube_tetra5.msh": "regular",
+    "ipc_armadillo_13k.msh": "not regular", "ipc_dolphin.msh": "not regular",
+    "ipc_hammer.msh": "regular", "ipc_hollow_cat.msh": "not regular",
+    "libigl_bunny.mesh": "not regular", "libigl_car.msh": "regular",
+    "libigl_decimated_knight.mesh": "regular", "libigl_hand.mesh": "not regular",
+    "libigl_octopus_low.mesh": "not regular", "meshtaichi_deer.ele": "not regular",
+    "mmc_sphshells.vtu": "not regular", "mmg_tinybox.mesh": "regular",
+    "pbd_armadillo_4k.ele": "not regular", "polyfem_microstructure_p1.msh": "not regular",
+    "polyfem_screw.msh": "not regular", "polyfem_table.msh": "not regular",
+    "pytetwild_test_tets.msh": "regular", "sfepy_cube_cylinder.mesh": "regular",
+    "sfepy_elbow2_inverted.mesh": "regular", "sfepy_piezo_micro.vtk": "regular",
+    "sfepy_wheelset.vtk": "regular", "simnibs_cube.msh": "regular",
+    "simnibs_sphere3.msh": "regular", "sofa_6_tetra_bad.msh": "regular",
+    "sofa_armadillo_4406.vtu": "regular", "sofa_liver_v1.vtu": "not regular",
+    "sofa_ossicles.vtu": "regular", "sofa_raptor_8418.vtu": "regular",
+    "svfsi_beam_tet4_129k.vtu": "not regular", "svfsi_block_kuhn_197k.vtu": "regular",
+    "svfsi_lv_43k.vtu": "regular", "svfsi_pipe_lumen_205k.vtu": "regular",
+    "svfsi_pipe_wall_85k.vtu": "regular", "vtkdata_fea_bracket_tet10.vtu": "not regular",
+    "vtkdata_tetramesh_mixed_orient.vtk": "regular",
+}
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", list(CORPUS))
-def test_corpus_meshes_named_in_the_issue(name):
+def test_every_corpus_mesh_is_decided_and_checked(name, rng):
     V, T = corpus_mesh(name)
-    r = regular_weights(V, T, time_limit=300)
-    assert r.regular == CORPUS[name]
+    r = regular_weights(V, T)
+    assert r.status == CORPUS[name]
     if r.regular:
-        assert r.margin > 0 and r.n_negative_interior_weighted == 0
-        L = tetlap.laplacian(V, T, "dual", weights=r.weights)
-        assert tetlap.check(L, V, T, nsd=False).linear_precision_ok
-        m0 = tetlap.mass(V, T, "circumcentric").diagonal()
-        m = tetlap.mass(V, T, "circumcentric", weights=r.weights).diagonal()
-        np.testing.assert_array_equal(r.masses_lost, np.flatnonzero((m0 > 0) & (m <= 0)))
-        assert len(r.masses_lost) == 0
+        # independently of the search and of its check: the core's margins are positive
+        # and the weighted dual has no negative interior weight
+        assert (face_margins(V, T, r.weights) > 0).all()    # vacuous without interior faces
+        assert r.n_negative_interior_weighted == 0
+    # the weights of every status assemble, refusing no tet that the plain dual accepts
+    tetlap.laplacian(V, T, "dual")
+    L = tetlap.laplacian(V, T, "dual", weights=r.weights)
+    if r.regular:     # (None: no interior vertex to test it on)
+        assert tetlap.check(L, V, T, nsd=False).linear_precision_ok in (True, None)
+    elif r.certificate_kind == "gordan":
+        assert certificate_holds(V, T, r.certificate_faces, r.certificate_multipliers, rng)
     else:
-        assert len(r.violated_faces) > 0
-        assert len(r.violated_faces) <= r.n_violated_plain
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", ["libigl_decimated_knight.mesh", "simnibs_sphere3.msh"])
-def test_corpus_masses_kept_by_the_line_search(name):
-    # 6 and 27 masses lost before the mass step's line search, 0 with it
-    V, T = corpus_mesh(name)
-    r = regular_weights(V, T, time_limit=300)
-    assert r.regular and len(r.masses_lost) == 0
+        assert r.certificate_kind == "folded" and r.n_folded == len(r.certificate_faces)

@@ -15,7 +15,8 @@ from typing_extensions import Self
 
 __all__ = ["assemble", "check_options", "vjp", "Mesh", "MAX_THREADS", "DELAUNAY_RTOL",
            "MAX_GROUP", "faces", "duplicates", "edges", "quality", "non_delaunay",
-           "check_operator", "negative_semidefinite", "element_certificate"]
+           "check_operator", "negative_semidefinite", "element_certificate",
+           "regular_conditions", "regular_search", "regular_masses"]
 
 MAX_THREADS: int
 DELAUNAY_RTOL: float
@@ -78,3 +79,27 @@ def negative_semidefinite(n: int, l: _CsrInput, tol: _F64, *, options: _Options 
 def element_certificate(cells: _Cells, n: int, weights: _F64, tol: _F64, *,
                         options: _Options = None
                         ) -> tuple[Literal[True] | None, str, dict[str, int | float]]: ...
+
+# Regular weights (tetlap.regular): rows = (vertices (c, 5) int64, g0 (c,), coefficients
+# (c, 5)); targets = (floor (c,), aim (c,), lo (n,), hi (n,)); budgets are iterations,
+# seconds an optional wall-clock limit. regular_conditions returns a dict: "interior" (f, 4),
+# "boundary" (b, 2), "nonmanifold" (k, 3) int64 (see faces); "vertices" (c, 5) int64, "g0"
+# (c,), "coefficients" (c, 5), "face" (c,) int64 (the margin rows); "folded" (f,) bool;
+# "flat" (k,) int64 (faces with a tet flat to rounding).
+_Rows = tuple[_I64, _F64, _F64]
+_Targets = tuple[_F64, _F64, _F64, _F64]
+_Stop = Literal["done", "stalled", "iterations", "deadline"]
+
+def regular_conditions(points: _F64, cells: _Cells, *, options: _Options = None
+                       ) -> dict[str, npt.NDArray[np.int64] | _F64 | npt.NDArray[np.bool_]]: ...
+# -> (u (n,), stop, iterations, short rows (k,) int64 largest shortfall first, their
+# multipliers (k,))
+def regular_search(rows: _Rows, targets: _Targets, u: _F64, iterations: int, *,
+                   seconds: float | None = None, options: _Options = None
+                   ) -> tuple[_F64, _Stop, int, _I64, _F64]: ...
+# masses = (plain circumcentric masses (n,), floor in [0, 1), u -> w scale (n,)); -> (u (n,),
+# {"rounds", "iterations", "kept", "lost", "deficit"})
+def regular_masses(points: _F64, cells: _Cells, rows: _Rows, targets: _Targets,
+                   masses: tuple[_F64, float, _F64], u: _F64, iterations: int, *,
+                   seconds: float | None = None, options: _Options = None
+                   ) -> tuple[_F64, dict[str, int | float]]: ...

@@ -22,7 +22,6 @@ Example
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 
@@ -46,15 +45,11 @@ SCHEMA_VERSION = 2
 PAIRS = (("primal", "barycentric"), ("dual", "circumcentric"))
 
 
-#: The default budget of the ``regular`` section (:func:`tetlap.regular.regular_weights`)
-#: is ``REGULAR_TIME_SHARE`` times the time the rest of the report took, at least 1 s and
-#: at most ``REGULAR_TIME_LIMIT`` seconds: past it the verdict is "undecided", so that
-#: ``tetlap info`` costs at most 1.5x its other checks on big meshes (which are ``O(m)``).
-REGULAR_TIME_LIMIT = 10.0
-REGULAR_TIME_SHARE = 0.5
-#: Above this many tets the default report leaves the search out (``status`` "n/a"): its
-#: set-up alone (NumPy, about 2.5 s per 1M tets here) exceeds the budget. An explicit
-#: ``regular_time_limit`` runs it at any size.
+#: The ``regular`` section runs :func:`tetlap.regular.regular_weights` on its deterministic
+#: work budget (:data:`tetlap.regular.MAX_ITERATIONS`), so two runs print the same answer
+#: on any machine and under any load. Above this many tets the default report leaves the
+#: search out (``status`` "n/a"); an explicit ``regular_time_limit`` (a wall-clock opt-in)
+#: runs it at any size.
 REGULAR_MAX_TETS = 300_000
 
 
@@ -76,10 +71,10 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
         Add the ``regular`` section: is the mesh regular (weighted Delaunay), and what the
         weighted dual with the weights found gains (:func:`regular_summary`).
     regular_time_limit : float > 0, optional
-        Seconds for that search; past it its ``status`` is ``"undecided"``. Default:
-        half the time the rest of the report took, clamped to [1, 10] seconds
-        (:data:`REGULAR_TIME_SHARE`, :data:`REGULAR_TIME_LIMIT`), and no search above
-        :data:`REGULAR_MAX_TETS` tets.
+        An explicit wall-clock limit in seconds for that search, on top of its work
+        budget; past it its ``status`` is ``"undecided"`` and the report depends on the
+        machine's speed and load. Default None: the work budget alone (the same report
+        on every run), and no search above :data:`REGULAR_MAX_TETS` tets.
 
     Returns
     -------
@@ -106,7 +101,6 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
     check_float_range(V, T)
-    start = time.perf_counter()
     step = Stages("tetlap info", progress)
     step("mesh diagnostics")
     summary, boundary = diagnostics._summary(V, T)
@@ -127,9 +121,6 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
                 f"{len(T)} tets > {REGULAR_MAX_TETS}: not searched by default, pass a time "
                 "limit (--regular-time S) to search")}
         else:
-            if regular_time_limit is None:
-                spent = time.perf_counter() - start
-                regular_time_limit = min(REGULAR_TIME_LIMIT, max(1.0, REGULAR_TIME_SHARE * spent))
             result["regular"] = _regular_section(V, T, result, regular_time_limit)
     step.done()
     return result
@@ -162,8 +153,9 @@ def regular_summary(V, T, result: RegularWeights | None = None, *, nsd: bool = F
     nsd : bool, default False
         Also check negative semidefiniteness of the three Laplacians (slow on big meshes).
     time_limit : float, optional
-        Seconds for :func:`tetlap.regular_weights` when ``result`` is None (None: no
-        limit); past it the verdict is ``"undecided"``.
+        An explicit wall-clock limit for :func:`tetlap.regular_weights` when ``result``
+        is None (None, the default: its deterministic work budget alone); past it the
+        verdict is ``"undecided"``.
     reports : dict, optional
         ``{"dual": ..., "primal": ...}``, :meth:`tetlap.Report.to_dict` of the plain dual
         and the primal on this mesh (``tetlap info`` has them): their counts are used

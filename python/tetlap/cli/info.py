@@ -15,8 +15,6 @@ DESCRIPTION = ("Counts, mesh quality and the paper's Table 1 for the primal and 
 
 
 def arguments(p) -> None:
-    from ..info import REGULAR_TIME_LIMIT
-
     p.add_argument("mesh", nargs="?",
                    help=f"mesh file (any format meshio reads); without it, {_mesh.BUILT_IN}")
     p.add_argument("--json", action="store_true", help="print one JSON object (default: tables)")
@@ -25,9 +23,10 @@ def arguments(p) -> None:
     p.add_argument("--no-regular", action="store_true",
                    help="skip the search for regular (weighted Delaunay) weights")
     p.add_argument("--regular-time", type=float, default=None, metavar="S",
-                   help="seconds for that search, a positive number; past it the verdict is "
-                        "'undecided' (default: half the time of the other checks, 1 to "
-                        f"{REGULAR_TIME_LIMIT:g} s)")
+                   help="an optional wall-clock limit in seconds for that search, a positive "
+                        "number; past it the verdict is 'undecided' and depends on the "
+                        "machine's load (default: none, a work budget that gives the same "
+                        "answer on every run)")
     p.add_argument("--plot", metavar="DIR",
                    help="also write histograms of dihedral angles, weights and masses "
                         "(PNG, named after the mesh) into DIR (created if needed; needs "

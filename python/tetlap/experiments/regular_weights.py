@@ -130,11 +130,11 @@ def fit_primal(V, T, w0=None):
     return sol.x * h2, float(np.linalg.norm(sol.fun)), r0
 
 
-def _mesh_row(name, family, V, T, *, nsd, time_limit):
+def _mesh_row(name, family, V, T, *, nsd):
     t0 = time.perf_counter()
     L, M = assembly.operators(V, T, "dual", "circumcentric")
     assembly_s = time.perf_counter() - t0
-    r = regular_weights(V, T, time_limit=time_limit)
+    r = regular_weights(V, T)
     row = {"family": family, "mesh": name, "n_vertices": len(V), "n_tets": len(T),
            "non_delaunay_faces": r.n_violated_plain, "regular": r.regular,
            "status": r.status, "certificate_faces": len(r.certificate_faces),
@@ -146,9 +146,7 @@ def _mesh_row(name, family, V, T, *, nsd, time_limit):
     weights = r.weights if r.weights.any() else None
     for label, kind, w in (("dual", "dual", None), ("weighted", "dual", weights),
                            ("primal", "primal", None)):
-        # (weighted: tets the core's accuracy guard refuses with these weights skipped)
-        L = assembly.laplacian(V, T, kind, weights=w, degenerate="skip" if w is not None
-                               else "raise")
+        L = assembly.laplacian(V, T, kind, weights=w)
         rep = check(L, V, T, nsd=do_nsd)
         row[f"negative_interior_{label}"] = rep.n_negative_interior
         row[f"nsd_{label}"] = rep.nsd
@@ -156,7 +154,7 @@ def _mesh_row(name, family, V, T, *, nsd, time_limit):
             row["linear_precision_weighted"] = rep.linear_precision_ok
     row["mass_nonpositive_dual"] = int((M.diagonal() <= 0).sum())
     m_w = (M if weights is None else
-           assembly.mass(V, T, "circumcentric", weights=weights, degenerate="skip")).diagonal()
+           assembly.mass(V, T, "circumcentric", weights=weights)).diagonal()
     used = diagnostics.referenced_vertices(T, len(V))
     row["mass_nonpositive_weighted"] = int((m_w[used] <= 0).sum())
     row["masses_lost"] = len(r.masses_lost)
@@ -184,7 +182,6 @@ def run(out, meshes=None) -> None:
     ``meshes``: a folder of mesh files (the corpus), or None for generated meshes only."""
     folder = meshes
     quick, seed = out.quick, out.seed
-    limit = 10.0 if quick else 60.0
 
     # -- part 1: corpus and generated meshes ----------------------------------------------
     jobs = []
@@ -207,7 +204,7 @@ def run(out, meshes=None) -> None:
                     n_tets=len(T), note=f"skipped: more than {MAX_TETS} tets")
             continue
         try:
-            row = _mesh_row(name, family, V, T, nsd=True, time_limit=limit)
+            row = _mesh_row(name, family, V, T, nsd=True)
         except Exception as e:  # a mesh the solver rejects (flat tets): say so
             row = {"family": family, "mesh": name, "n_vertices": len(V), "n_tets": len(T),
                    "note": f"{type(e).__name__}: {e}"}
@@ -218,7 +215,7 @@ def run(out, meshes=None) -> None:
     for w in progress((0.3,) if quick else (0.1, 0.3, 1.0), desc="shells"):
         for s in range(seed, seed + (1 if quick else 2)):
             V, T, spheres = generate.shell(shell_n, seed=s, weight_scale=w)
-            r = regular_weights(V, T, time_limit=limit)
+            r = regular_weights(V, T)
             out.row(part="shell", family="weighted shell", mesh=f"shell {shell_n} w {w} seed {s}",
                     n_vertices=len(V), n_tets=len(T), weight_scale=w, regular=r.regular,
                     margin=r.margin, non_delaunay_faces=r.n_violated_plain,
@@ -243,7 +240,7 @@ def run(out, meshes=None) -> None:
             if _negative_interior(V, T, "primal") > 0:
                 out.row(part="conjecture", family=base, jitter=a, primal_non_negative=False)
                 continue
-            r = regular_weights(V, T, time_limit=limit)
+            r = regular_weights(V, T)
             w, res, res0 = fit_primal(V, T, r.weights if r.regular else None)
             out.row(part="conjecture", family=base, jitter=a, primal_non_negative=True,
                     n_vertices=len(V), n_tets=len(T), non_delaunay_faces=r.n_violated_plain,

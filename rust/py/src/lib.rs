@@ -12,6 +12,7 @@ mod derivatives;
 mod errors;
 mod mesh;
 mod options;
+mod regular;
 
 use pyo3::prelude::*;
 
@@ -31,6 +32,8 @@ mod _core {
     };
     #[pymodule_export]
     use crate::derivatives::vjp;
+    #[pymodule_export]
+    use crate::regular::{regular_conditions, regular_masses, regular_search};
 
     #[pymodule_init]
     fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -3,12 +3,14 @@
 //! * `check`: the Table-1 properties read off an operator in one pass;
 //! * `definite`: negative semidefiniteness from the operator's weights;
 //! * `element_certificate`: negative semidefiniteness from the element matrices;
-//! * `quality`: per-tet quality and the local Delaunay test.
+//! * `quality`: per-tet quality and the local Delaunay test;
+//! * [`regular`]: vertex weights that make a mesh regular (weighted Delaunay).
 
 pub(crate) mod check;
 pub(crate) mod definite;
 pub(crate) mod element_certificate;
 pub(crate) mod quality;
+pub mod regular;
 
 pub use check::{check_operator, OperatorCheck};
 pub use definite::{negative_semidefinite, Semidefinite, MAX_GROUP};

@@ -1,0 +1,389 @@
+"""Vertex weights that make a given tetrahedral mesh regular (weighted Delaunay).
+
+A mesh ``(V, T)`` is *regular* for vertex weights ``w`` when it is the projection of the
+lower convex hull of the lifted points ``(x_i, |x_i|^2 - w_i)``; locally, when across every
+interior face ``abc`` shared by the tets ``abcp`` and ``abcq`` the lifted ``q`` lies
+strictly above the hyperplane through the lifted ``a, b, c, p``. Then its weighted dual
+(``tetlap.laplacian(V, T, "dual", weights=w)``, the power diagram) is an orthogonal dual
+whose interior edge weights are all non-negative: with linear precision (which every
+weighted dual has) that is a Laplacian with the maximum principle, as the plain dual is on
+Delaunay meshes. :func:`regular_weights` finds such weights, or proves that none exist.
+
+Conventions
+-----------
+V, T
+    (n, 3) float64 positions; (m, 4) integer tets, any orientation.
+w
+    (n,) vertex weights in squared-length units, exactly as ``weights=`` of
+    :func:`tetlap.laplacian`: larger ``w_i`` means a bigger power cell for vertex ``i``;
+    the lifting map is ``x -> (x, |x|^2 - w)``. Only differences matter up to an affine
+    function: ``w + a + b . x`` gives the same regularity and the same interior weights.
+face margin
+    Per interior face, the signed length of its power-diagram edge over the face's RMS
+    edge length, affine in ``w`` (:mod:`~tetlap.regular.conditions`,
+    :func:`face_margins`); ``> 0``: strictly locally regular.
+regular, strictly
+    Every margin vanishes for ``w = |x|^2`` (a flat lifting), so "every margin >= 0" is
+    always possible and says nothing. *Regular* means: some ``w`` makes every margin
+    strictly positive (then ``|x|^2 + t (w - |x|^2)`` makes them as large as wanted), every
+    face is shared by at most two tets and none is folded. By Gordan's theorem of the
+    alternative a mesh of manifold, unfolded faces is **not** regular exactly when some
+    non-negative combination of the face conditions vanishes identically in ``w``: that
+    combination is the certificate :func:`regular_weights` looks for. A cospherical
+    configuration (every margin 0 at ``w = 0``, as in a Kuhn grid) is regular only if
+    some weights make its margins strictly positive.
+
+The modules: :mod:`~tetlap.regular.conditions` (the margins, from the core),
+:mod:`~tetlap.regular.search` (the search and its certificates),
+:mod:`~tetlap.regular.masses` (the mass step), :mod:`~tetlap.regular.verify` (the checks
+of every answer, independent of the search), :mod:`~tetlap.regular.result`.
+
+>>> import tetlap
+>>> from tetlap.regular import regular_weights
+>>> V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)   # a non-Delaunay mesh
+>>> r = regular_weights(V, T)
+>>> r.status, r.margin > 0, r.n_violated_plain > 0
+('regular', True, True)
+>>> r.n_negative_interior_plain > 0, r.n_negative_interior_weighted
+(True, 0)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from .. import _core, assembly, diagnostics
+from ..errors import OptionError
+from ..analysis import negative_weights
+from . import masses, search, verify
+from .conditions import Conditions, _validated, face_margins
+from .result import STATUSES, RegularWeights
+from .search import TARGET_MARGIN, Budget, Certificate, Problem
+
+__all__ = [
+    "regular_weights",
+    "RegularWeights",
+    "face_margins",
+    "STATUSES",
+    "TARGET_MARGIN",
+    "MAX_ITERATIONS",
+]
+
+#: The default work budget of :func:`regular_weights` (``max_iterations``): L-BFGS
+#: iterations of the search and the mass step together. Every corpus mesh (up to 205k
+#: tets) is decided well within it.
+MAX_ITERATIONS = 20000
+
+
+def _vertex_scale(V, T) -> np.ndarray:
+    """The search's unit per vertex: the squared mean length of its edges (1 for
+    unreferenced vertices)."""
+    n = len(V)
+    E = diagnostics.mesh_edges(T)
+    d = V[E[:, 0]] - V[E[:, 1]]
+    length = np.sqrt(np.einsum("ed,ed->e", d, d))
+    total = np.bincount(E.ravel(), np.repeat(length, 2), minlength=n)
+    count = np.bincount(E.ravel(), minlength=n)
+    mean = np.where(count > 0, total / np.maximum(count, 1), 1.0)
+    return mean * mean
+
+
+@dataclasses.dataclass(frozen=True)
+class Settings:
+    """The options of :func:`regular_weights`, checked (:meth:`of`)."""
+
+    target_margin: float
+    boundary: str
+    mass_floor: float | None
+    max_weight: float
+    max_iterations: int
+    time_limit: float | None
+    threads: int | None
+
+    @classmethod
+    def of(cls, **options) -> Settings:
+        """The settings, or an :class:`tetlap.OptionError` naming the first bad option."""
+        def number(x):
+            return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+
+        o = cls(**options)
+        if not (number(o.target_margin) and 0 < o.target_margin < np.inf):
+            raise OptionError(f"target_margin must be a positive number, got {o.target_margin!r}")
+        if o.boundary not in ("free", "zero"):
+            raise OptionError(f'boundary must be "free" or "zero", got {o.boundary!r}')
+        if o.mass_floor is not None and not (number(o.mass_floor) and 0 <= o.mass_floor < 1):
+            raise OptionError(f"mass_floor must lie in [0, 1) or be None, got {o.mass_floor!r}")
+        if not (number(o.max_weight) and 0 < o.max_weight < np.inf):
+            raise OptionError(f"max_weight must be a positive number, got {o.max_weight!r}")
+        if not (isinstance(o.max_iterations, (int, np.integer))
+                and not isinstance(o.max_iterations, bool) and o.max_iterations >= 1):
+            raise OptionError(
+                f"max_iterations must be a positive integer, got {o.max_iterations!r}")
+        if o.time_limit is not None and not (number(o.time_limit) and 0 < o.time_limit < np.inf):
+            raise OptionError(f"time_limit must be positive seconds or None, got {o.time_limit!r}")
+        _core.check_options({"threads": o.threads})
+        return o
+
+
+@dataclasses.dataclass
+class Decision:
+    """What :func:`regular_weights` decided, before the report: the weights, the status,
+    the checks of ``w = 0`` (``plain``) and of the weights (``final``), the certificate (of
+    a "not regular"), the search and the mass step (when they ran), the notes."""
+
+    w: np.ndarray
+    status: str
+    plain: verify.MarginCheck
+    final: verify.MarginCheck
+    certificate: Certificate | None = None
+    outcome: search.Outcome | None = None
+    mass_step: masses.MassStep | None = None
+    notes: list[str] = dataclasses.field(default_factory=list)
+
+
+def _dual_counts(V, T, w, on_boundary, threads):
+    """(negative interior weights, circumcentric masses) of the (weighted) dual."""
+    L, M = assembly.operators(V, T, "dual", "circumcentric", weights=w, threads=threads)
+    return negative_weights(L, V, T, on_boundary)[1], M.diagonal()
+
+
+def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str = "free",
+                    mass_floor: float | None = 0.1, max_weight: float = 10.0,
+                    max_iterations: int = MAX_ITERATIONS,
+                    time_limit: float | None = None,
+                    threads: int | None = None) -> RegularWeights:
+    """Vertex weights that make the mesh regular, so that its weighted dual has
+    non-negative interior weights, or a proof that none do.
+
+    Parameters
+    ----------
+    V : (n, 3) array-like of real numbers.  T : (m, 4) integer array-like, any orientation.
+    target_margin : float > 0, the face margin (dual-edge length over face size) the weights
+        aim for on the faces they repair. Faces that are strictly locally Delaunay keep at
+        least ``min(half their plain margin, target_margin)``.
+    boundary : ``"free"`` (default: boundary vertices get weights like any other) or
+        ``"zero"`` (boundary weights fixed at 0, which can make a regular mesh
+        non-regular).
+    mass_floor : float in [0, 1) or None, keep every weighted circumcentric mass above
+        ``mass_floor`` times its plain value where that is positive (0: only positive). A
+        soft goal: the vertices where it fails are reported. None: skip the mass step.
+    max_weight : bound on ``|w_i| / l_i^2`` (``l_i`` the vertex's mean edge length) in the
+        search. The proofs of "not regular" do not depend on it.
+    max_iterations : int, the work budget: L-BFGS iterations of the search and the mass
+        step together (:data:`MAX_ITERATIONS`); certificate LPs are bounded by their own
+        simplex iteration limit. Past it the status is ``"undecided"`` unless already
+        decided. The same input gives the same result on any machine and under any load.
+    time_limit : float or None, an optional wall-clock limit in seconds for the whole call,
+        set-up included (None, the default: none). An explicit opt-in: with it the result
+        depends on the machine's speed and load. The final report (two assemblies of the
+        dual and the checks) runs after it.
+    threads : int or None, the core's worker threads (None: all cores). The result does
+        not depend on it.
+
+    Returns
+    -------
+    :class:`RegularWeights` (``.weights``, ``.status``, ``.regular``, ``.margin``,
+    ``.violated_faces``, ``.certificate_kind``, ``.certificate_faces``, ``.verification``,
+    masses and counts; ``str()`` is a short report).
+
+    Method
+    ------
+    1. The conditions of every interior face (the core). Faces of more than two tets, or
+       folded faces, prove the mesh not regular (checked on ``T`` itself, and by exact
+       orientation signs).
+    2. ``w = 0``: when every face is strictly locally Delaunay (checked as in step 5) the
+       plain dual is the answer.
+    3. The search (:mod:`~tetlap.regular.search`): first a quadratic lifting (structured
+       meshes with cospherical faces are Delaunay in a sheared metric); else projected
+       L-BFGS in the core on the squared shortfall of the faces that are not strictly
+       Delaunay (aim ``target_margin``) and of the others (aim ``min(plain margin / 2,
+       target_margin)``), from ``w = 0``, boundary weights ``>= 0`` for 300 iterations
+       (boundary power cells then only grow), then of either sign. After 300 iterations,
+       and where it sticks, certificate LPs (HiGHS) on the faces left short; a certificate
+       counts only once checked in exact arithmetic
+       (:func:`~tetlap.regular.verify.check_certificate`). Else lower floors, then any
+       positive margin.
+    4. The mass step (:mod:`~tetlap.regular.masses`), when ``mass_floor`` is not None.
+    5. The check: ``"regular"`` only if the weights make every interior face strictly
+       locally regular from both of its tets, by the lifted determinant in float64 against
+       its permanent and, within rounding of 0, in exact rational arithmetic
+       (:func:`~tetlap.regular.verify.check_margins`); else ``"undecided"``, the reason in
+       the notes.
+
+    When the mesh is not regular the weights are 0 (the plain dual); when undecided, the
+    search's last ones, or 0 if those leave more faces not strictly regular than ``w = 0``.
+    The weights of every status assemble wherever the plain dual does (hull slivers
+    included): ``laplacian(V, T, "dual", weights=r.weights)``.
+
+    Deterministic: the same input gives the same output (weights bitwise) for any thread
+    count and any load, unless ``time_limit`` is given. Inputs are not modified.
+
+    Raises
+    ------
+    tetlap.ShapeError, DtypeError, IndexRangeError, NonFiniteError, RepeatedVertexError,
+    EmptyMeshError (bad input, as for the operators); DegenerateElementError (a tet flat to
+    double precision next to an interior face: it has no power centre); OptionError (a bad
+    option).
+
+    Examples
+    --------
+    A regular triangulation of random weighted points is recognised; the weights found
+    make every interior weighted-dual weight non-negative while the plain dual has
+    negative ones:
+
+    >>> import numpy as np, tetlap
+    >>> from tetlap.regular import regular_weights
+    >>> rng = np.random.default_rng(0)
+    >>> P = rng.uniform(-1, 1, size=(300, 3))
+    >>> T = tetlap.meshes.regular_triangulation(P, rng.uniform(0, 0.05, size=300))
+    >>> V, T = tetlap.meshes.compact(P, T)
+    >>> r = regular_weights(V, T)
+    >>> r.status, r.n_negative_interior_plain > 0, r.n_negative_interior_weighted
+    ('regular', True, 0)
+    >>> L = tetlap.laplacian(V, T, "dual", weights=r.weights)
+    >>> bool(tetlap.check(L, V, T).linear_precision_ok)
+    True
+    """
+    start = time.perf_counter()
+    settings = Settings.of(target_margin=target_margin, boundary=boundary,
+                           mass_floor=mass_floor, max_weight=max_weight,
+                           max_iterations=max_iterations, time_limit=time_limit,
+                           threads=threads)
+    V, T = _validated(V, T)
+    budget = Budget(iterations=int(max_iterations),
+                    deadline=None if time_limit is None else start + float(time_limit))
+    cond = Conditions.of(V, T, threads)
+    return _report(V, T, cond, settings, _decide(V, T, cond, settings, budget), start)
+
+
+def _decide(V, T, cond: Conditions, settings: Settings, budget: Budget) -> Decision:
+    """Steps 1-5 of :func:`regular_weights`."""
+    zero = np.zeros(len(V))
+    plain = verify.check_margins(V, T, cond.interior, zero, exact=False)
+    d = Decision(w=zero, status="undecided", plain=plain, final=plain)
+    if len(cond.nonmanifold):
+        triangles = cond.nonmanifold
+        if verify.check_nonmanifold(T, triangles):
+            d.certificate = Certificate("non-manifold", np.arange(len(triangles)),
+                                        np.ones(len(triangles)))
+            d.notes.append(f"{len(triangles)} faces are shared by more than two tets: not a "
+                           "triangulation, so not regular (w = 0)")
+    elif cond.folded.any():
+        faces = np.flatnonzero(cond.folded)
+        if verify.check_folded(V, T, cond.interior, faces):
+            d.certificate = Certificate("folded", faces, np.ones(len(faces)))
+            d.notes.append(f"{len(faces)} folded faces (both tets on one side): no weights "
+                           "repair them (w = 0)")
+        else:
+            d.notes.append("folded faces in float64 that exact orientation signs do not "
+                           "confirm (w = 0)")
+    elif plain.proved:
+        d.notes.append("strictly Delaunay: the plain dual (w = 0) is the answer")
+    else:
+        _find(V, T, cond, settings, budget, d)
+    if d.certificate is not None:
+        d.status = "not regular"
+    elif d.final.proved:
+        d.status = "regular"
+    elif d.outcome is not None and d.outcome.status == "reached":
+        d.notes.append(f"{len(d.final.failed)} faces fail the check of the weights found "
+                       "(margins within rounding of 0 or below)")
+    return d
+
+
+def _find(V, T, cond: Conditions, settings: Settings, budget: Budget, d: Decision) -> None:
+    """Steps 3-4 of :func:`regular_weights`: the search, the mass step and the check of the
+    weights, into ``d``."""
+    scale = _vertex_scale(V, T)
+    problem = Problem.of(cond, scale)
+    sign = d.plain.sign[cond.face[problem.rows]]
+    allowed = (np.ones(len(V), dtype=bool) if settings.boundary == "free"
+               else ~cond.on_boundary)
+    hi = np.where(allowed, float(settings.max_weight), 0.0)
+    lo = -hi
+    d.outcome = search.search(V, T, cond, problem, sign, settings.target_margin, lo, hi,
+                              budget, d.notes, settings.threads)
+    u = d.outcome.u
+    if d.outcome.status == "reached" and settings.mass_floor is not None:
+        plain_masses = masses.circumcentric_masses(V, T, None, settings.threads)
+        u, d.mass_step = masses.keep_masses(V, T, problem, d.outcome, lo, hi, plain_masses,
+                                            settings.mass_floor, budget, settings.threads)
+        if d.mass_step.lost or d.mass_step.deficit:
+            d.notes.append(f"mass step: {d.mass_step.lost} positive plain masses lost, deficit "
+                           f"{d.mass_step.deficit:.3g} below {settings.mass_floor:g} x plain "
+                           f"after {d.mass_step.rounds} rounds ({d.mass_step.kept} kept)")
+    d.certificate = d.outcome.certificate
+    if d.certificate is not None:       # not regular: the plain dual is what is left
+        return
+    d.w = u * scale
+    d.final = verify.check_margins(V, T, cond.interior, d.w)
+    if d.outcome.status != "reached" and len(d.final.failed) > len(d.plain.failed):
+        d.notes.append("the search's weights leave more faces not strictly regular than "
+                       "w = 0: w = 0")
+        d.w, d.final = np.zeros(len(V)), d.plain
+
+
+def _report(V, T, cond: Conditions, settings: Settings, d: Decision, start: float
+            ) -> RegularWeights:
+    """The counts and the result."""
+    w, threads = d.w, settings.threads
+    n_neg_plain, m_plain = _dual_counts(V, T, None, cond.on_boundary, threads)
+    n_neg_w, m_weighted = ((n_neg_plain, m_plain) if not w.any()
+                           else _dual_counts(V, T, w, cond.on_boundary, threads))
+    g = cond.per_face(cond.margins(w))
+    g_plain = cond.per_face(cond.g0)
+    positive = m_plain > 0
+    certificate = d.certificate
+    if certificate is None:
+        cert_faces = np.zeros((0, 3), dtype=np.int64)
+        verification = (f"every face strictly locally regular from both tets: float64 "
+                        f"lifted determinants against their permanents, {d.final.exact} "
+                        "within rounding of 0 decided exactly") if d.status == "regular" else ""
+    elif certificate.kind == "non-manifold":
+        cert_faces = cond.nonmanifold[certificate.faces]
+        verification = "faces of more than two tets, counted on T"
+    else:
+        cert_faces = cond.triangles[certificate.faces]
+        verification = ("folded faces: exact orientation signs" if certificate.kind == "folded"
+                        else "Gordan multipliers on the faces' lifted determinants, exact "
+                             "rational arithmetic")
+    iterations = ((d.outcome.iterations if d.outcome else 0)
+                  + (d.mass_step.iterations if d.mass_step else 0))
+    mass_floor = settings.mass_floor or 0.0
+    return RegularWeights(
+        weights=w,
+        status=d.status,
+        margin=float(g.min()) if len(g) else 0.0,
+        violated_faces=cond.triangles[d.final.failed],
+        face_margins=g,
+        margin_plain=float(g_plain.min()) if len(g_plain) else 0.0,
+        n_violated_plain=int((d.plain.sign < 0).sum()),
+        n_cospherical_plain=int((d.plain.sign == 0).sum()),
+        n_folded=int(cond.folded.sum()),
+        n_nonmanifold=int(len(cond.nonmanifold)),
+        target_margin=float(settings.target_margin),
+        margin_floor=(float(d.outcome.floor) if d.status == "regular" and d.outcome is not None
+                      else None),
+        n_weighted_vertices=int((w != 0).sum()),
+        n_negative_interior_plain=n_neg_plain,
+        n_negative_interior_weighted=n_neg_w,
+        mass_min_plain=float(m_plain.min()),
+        mass_min_weighted=float(m_weighted.min()),
+        masses_lost=np.flatnonzero(positive & (m_weighted <= 0)).astype(np.int64),
+        masses_below_floor=np.flatnonzero(
+            positive & (m_weighted < mass_floor * m_plain)).astype(np.int64),
+        seconds=time.perf_counter() - start,
+        notes=d.notes,
+        certificate_kind=None if certificate is None else certificate.kind,
+        certificate_faces=cert_faces.astype(np.int64),
+        certificate_multipliers=(np.zeros(0) if certificate is None
+                                 else certificate.multipliers),
+        verification=verification,
+        iterations=iterations,
+        lp_count=d.outcome.lps if d.outcome else 0,
+        mass_rounds=d.mass_step.rounds if d.mass_step else 0,
+    )
+

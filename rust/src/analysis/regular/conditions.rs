@@ -1,0 +1,271 @@
+//! The local regularity condition of every interior face, linear in the vertex weights.
+//!
+//! For the interior face `abc` shared by the tets `t1 = abcp` and `t2 = abcq`, lift every
+//! point to `(x, |x|^2 - w)`. The face is *locally regular* when the lifted `q` lies above
+//! the hyperplane through the lifted `a, b, c, p`: the sign of the lifted determinant
+//!
+//! ```text
+//! D(w) = orient(t1) * det[ e_i , |e_i|^2 - (w_i - w_q) ]_{i = corners of t1},  e_i = x_i - x_q
+//! ```
+//!
+//! Divided by `norm = 2 |n| |h_p| |h_q| l` (`|n|` twice the face's area, `h_p`, `h_q` the
+//! heights of `p` and `q` over it, `l` its RMS edge length) it is the face's *margin*: the
+//! signed length of its power-diagram edge, from the power centre of `t1` to that of `t2`
+//! along the face normal towards `t2`, over `l`. Scale-free, and affine in `w`:
+//!
+//! ```text
+//! margin(w) = g0 + sum_k coefficients[k] * w[vertices[k]]
+//! ```
+//!
+//! with `vertices` the four corners of `t1` in its element order, then `q`. It vanishes for
+//! `w = |x|^2` (a flat lifting). A *folded* face (both tets on one side of it) has a second
+//! row, seen from `t2`, of the opposite sign for every `w`.
+//!
+//! Every face is computed in its own frame: translated to `x_q` and scaled by the power of
+//! two that brings the largest difference into `[1/2, 1)` (exact), so that coordinates
+//! near the float range neither overflow nor underflow.
+
+use crate::element::tet::FACES;
+use crate::error::{Error, Result};
+use crate::mesh::TetView;
+use crate::options::Options;
+use crate::assembly::CHUNK;
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// The affine margins of the interior faces of a mesh (module docs).
+///
+/// Row `f < n_faces` is interior face `f` (the order of [`crate::Faces::interior`]) seen from
+/// its first tet; the rows after those are the folded faces seen from their second tet.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Conditions {
+    /// The five vertices of every row: the first tet's corners in its element order, then
+    /// the opposite vertex of the second tet.
+    pub vertices: Vec<[u32; 5]>,
+    /// Every row's margin at `w = 0`.
+    pub g0: Vec<f64>,
+    /// `d margin / d w` of every row's five vertices (units `1 / length^2`).
+    pub coefficients: Vec<[f64; 5]>,
+    /// The interior face of every row.
+    pub face: Vec<u32>,
+    /// Number of interior faces (the first `n_faces` rows).
+    pub n_faces: usize,
+    /// Per interior face: both tets lie on the same side of it.
+    pub folded: Vec<bool>,
+    /// Interior faces whose margin is undefined in double precision (a tet flat to
+    /// rounding on one side: no power centre), ascending; their rows hold NaN.
+    pub flat: Vec<u32>,
+}
+
+/// One row: `(vertices, g0, coefficients, norm > 0 and finite)`.
+type Row = ([u32; 5], f64, [f64; 5], bool);
+
+/// A row and whether the face is folded (both tets strictly on one side of it).
+type Viewed = (Row, bool);
+
+/// `2^-k` with `max_abs * 2^-k` in `[1/2, 1)`, or 1 for zero or non-normal `max_abs`.
+fn inverse_scale(max_abs: f64) -> f64 {
+    if !(max_abs.is_normal()) {
+        return 1.0;
+    }
+    let k = ((max_abs.to_bits() >> 52) & 0x7ff) as i32 - 1022;
+    // 2^-k is normal for every normal max_abs except near the top, where it is exact anyway
+    2f64.powi(-k)
+}
+
+/// The row of the face opposite corner `c` of `tet` (corner points `x`), seen from `tet`,
+/// with `q` the opposite vertex of the other tet (point `xq`).
+fn row(tet: [u32; 4], x: [DVec3; 4], c: usize, q: u32, xq: DVec3) -> Viewed {
+    let diff = x.map(|xi| xi - xq);
+    let max_abs = diff.iter().fold(0.0f64, |m, d| m.max(d.abs().max_element()));
+    let inv = inverse_scale(max_abs);
+    let e = diff.map(|d| d * inv);
+    let s = e.map(|v| v.length_squared());
+    let (x23, x01) = (e[2].cross(e[3]), e[0].cross(e[1]));
+    let cof = [-e[1].dot(x23), e[0].dot(x23), -e[3].dot(x01), e[2].dot(x01)];
+    // the face and the heights of p (corner c) and of q over it, in the same frame
+    let f = FACES[c].map(|k| e[k]);
+    let normal = (f[1] - f[0]).cross(f[2] - f[0]);
+    let area2 = normal.length();
+    let hp = (e[c] - f[0]).dot(normal) / area2;
+    let hq = (-f[0]).dot(normal) / area2;
+    let rms = (((f[1] - f[0]).length_squared() + (f[2] - f[1]).length_squared() + (f[0] - f[2]).length_squared())
+        / 3.0)
+        .sqrt();
+    let norm = 2.0 * area2 * hp.abs() * hq.abs() * rms;
+    let orient = (e[1] - e[0]).dot((e[2] - e[0]).cross(e[3] - e[0])).signum();
+    let ok = norm > 0.0 && norm.is_finite();
+    let k = orient / norm;
+    let g0 = (cof[0] * s[0] + cof[1] * s[1] + cof[2] * s[2] + cof[3] * s[3]) * k;
+    // coefficients in user units: the frame's squared lengths are the user's times inv^2
+    let kw = k * inv * inv;
+    let coefficients = [-cof[0] * kw, -cof[1] * kw, -cof[2] * kw, -cof[3] * kw, (cof[0] + cof[1] + cof[2] + cof[3]) * kw];
+    let vertices = [tet[0], tet[1], tet[2], tet[3], q];
+    let folded = hp * hq > 0.0;
+    if ok {
+        ((vertices, g0, coefficients, true), folded)
+    } else {
+        ((vertices, f64::NAN, [f64::NAN; 5], false), folded)
+    }
+}
+
+/// The conditions of every interior face `[t1, c1, t2, c2]` of `interior` (the table of
+/// [`crate::faces`]) of a mesh in R^3.
+///
+/// Deterministic: every row is computed on its own (in parallel), in a fixed slot.
+///
+/// ```
+/// use tetlap::analysis::regular::conditions;
+/// use tetlap::{faces, Options, Tet, TetView};
+/// // two tets on the face (1, 2, 3); vertex 4 outside the circumsphere of the first
+/// let points = [0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.5];
+/// let tets = [[0, 1, 2, 3], [4, 2, 1, 3]];
+/// let mesh = TetView::new(&points, 3, &tets)?;
+/// let opts = Options::default();
+/// let c = conditions(&mesh, &faces::<Tet>(&tets, 5, &opts)?.interior, &opts)?;
+/// assert_eq!((c.n_faces, c.vertices[0]), (1, [0, 1, 2, 3, 4]));
+/// assert!(c.g0[0] > 0.0); // locally Delaunay
+/// // w = |x|^2 lifts every point flat: the margin vanishes
+/// let w: Vec<f64> = (0..5).map(|i| (0..3).map(|k| points[3 * i + k] * points[3 * i + k]).sum()).collect();
+/// let m = c.g0[0] + (0..5).map(|k| c.coefficients[0][k] * w[c.vertices[0][k] as usize]).sum::<f64>();
+/// assert!(m.abs() < 1e-14);
+/// # Ok::<(), tetlap::Error>(())
+/// ```
+pub fn conditions(mesh: &TetView, interior: &[[u32; 4]], opts: &Options) -> Result<Conditions> {
+    if mesh.dim() != 3 {
+        return Err(Error::Shape { what: format!("regular weights need points in R^3, got dimension {}", mesh.dim()) });
+    }
+    let cells = mesh.cells();
+    let m = cells.len() as u32;
+    let bad = |f: &[u32; 4]| f[0] >= m || f[2] >= m || f[1] >= 4 || f[3] >= 4;
+    if let Some(k) = interior.iter().position(bad) {
+        return Err(Error::Shape {
+            what: format!("interior face {k} must hold [element, corner, element, corner] of this mesh, got {:?}", interior[k]),
+        });
+    }
+    let points = mesh.points();
+    let point = |v: u32| DVec3::new(points[3 * v as usize], points[3 * v as usize + 1], points[3 * v as usize + 2]);
+    let n_faces = interior.len();
+    let mut first: Vec<Row> = vec![([0; 5], 0.0, [0.0; 5], true); n_faces];
+    let mut folded = vec![false; n_faces];
+    opts.install(|| {
+        first.par_chunks_mut(CHUNK).zip(folded.par_chunks_mut(CHUNK)).zip(interior.par_chunks(CHUNK)).try_for_each(
+            |((rows, flags), faces)| {
+                opts.cancelled()?;
+                for ((slot, flag), &[t1, c1, t2, c2]) in rows.iter_mut().zip(flags.iter_mut()).zip(faces) {
+                    let tet = cells[t1 as usize];
+                    let q = cells[t2 as usize][c2 as usize];
+                    (*slot, *flag) = row(tet, tet.map(point), c1 as usize, q, point(q));
+                }
+                Ok(())
+            },
+        )
+    })?;
+    // the second view of every folded face, in face order
+    let second: Vec<(u32, Row)> = folded
+        .iter()
+        .enumerate()
+        .filter(|&(_, &f)| f)
+        .map(|(f, _)| {
+            let [t1, c1, t2, c2] = interior[f];
+            let tet = cells[t2 as usize];
+            let p = cells[t1 as usize][c1 as usize];
+            (f as u32, row(tet, tet.map(point), c2 as usize, p, point(p)).0)
+        })
+        .collect();
+    let total = n_faces + second.len();
+    let mut c = Conditions {
+        vertices: Vec::with_capacity(total),
+        g0: Vec::with_capacity(total),
+        coefficients: Vec::with_capacity(total),
+        face: Vec::with_capacity(total),
+        n_faces,
+        folded,
+        flat: vec![],
+    };
+    let rows = first.into_iter().enumerate().map(|(f, r)| (f as u32, r)).chain(second);
+    for (f, (vertices, g0, coefficients, ok)) in rows {
+        if !ok && c.flat.last() != Some(&f) {
+            c.flat.push(f);
+        }
+        c.vertices.push(vertices);
+        c.g0.push(g0);
+        c.coefficients.push(coefficients);
+        c.face.push(f);
+    }
+    c.flat.sort_unstable();
+    c.flat.dedup();
+    Ok(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::topology::faces;
+    use crate::element::Tet;
+
+    fn margin(c: &Conditions, r: usize, w: &[f64]) -> f64 {
+        c.g0[r] + (0..5).map(|k| c.coefficients[r][k] * w[c.vertices[r][k] as usize]).sum::<f64>()
+    }
+
+    /// The power centre of a tet: equal power |c - x_i|^2 - w_i to its four corners.
+    fn power_centre(x: [DVec3; 4], w: [f64; 4]) -> DVec3 {
+        let (a, b, cc) = (x[1] - x[0], x[2] - x[0], x[3] - x[0]);
+        let r = |k: usize, e: DVec3| (e.length_squared() + w[0] - w[k]) / 2.0;
+        let det = a.dot(b.cross(cc));
+        x[0] + (r(1, a) * b.cross(cc) + r(2, b) * cc.cross(a) + r(3, cc) * a.cross(b)) / det
+    }
+
+    #[test]
+    fn the_margin_is_the_signed_power_edge_over_the_face_size() {
+        let points = [0., 0., 0., 1., 0.1, 0., 0.2, 1., 0., 0.1, 0.3, 1., 1.1, 0.9, 0.8];
+        let tets = [[0, 1, 2, 3], [4, 2, 1, 3]];
+        let mesh = TetView::new(&points, 3, &tets).unwrap();
+        let opts = Options::default();
+        let interior = faces::<Tet>(&tets, 5, &opts).unwrap().interior;
+        let c = conditions(&mesh, &interior, &opts).unwrap();
+        let p = |v: u32| DVec3::new(points[3 * v as usize], points[3 * v as usize + 1], points[3 * v as usize + 2]);
+        for w in [[0.0; 5], [0.1, -0.05, 0.2, 0.0, 0.3]] {
+            let c1 = power_centre(tets[0].map(p), tets[0].map(|v| w[v as usize]));
+            let c2 = power_centre(tets[1].map(p), tets[1].map(|v| w[v as usize]));
+            let f = [p(1), p(2), p(3)];
+            let mut n = (f[1] - f[0]).cross(f[2] - f[0]).normalize();
+            if n.dot(p(4) - f[0]) < 0.0 {
+                n = -n;
+            }
+            let rms = (((f[1] - f[0]).length_squared() + (f[2] - f[1]).length_squared() + (f[0] - f[2]).length_squared()) / 3.0).sqrt();
+            let expected = (c2 - c1).dot(n) / rms;
+            assert!((margin(&c, 0, &w) - expected).abs() < 1e-12, "{} {expected}", margin(&c, 0, &w));
+        }
+    }
+
+    #[test]
+    fn a_folded_face_has_two_rows_of_opposite_sign_and_scale_does_not_matter() {
+        // the second tet on the same side of the face (1, 2, 3) as the first
+        let base = [0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 0.1, 0.1, 0.2];
+        let tets = [[0, 1, 2, 3], [4, 1, 2, 3]];
+        let opts = Options::default();
+        let interior = faces::<Tet>(&tets, 5, &opts).unwrap().interior;
+        let mut reference = None;
+        for s in [1.0, 1e-150, 1e150] {
+            let points: Vec<f64> = base.iter().map(|x| x * s).collect();
+            let c = conditions(&TetView::new(&points, 3, &tets).unwrap(), &interior, &opts).unwrap();
+            assert_eq!((c.n_faces, c.face.clone(), c.folded.clone()), (1, vec![0, 0], vec![true]));
+            let w = [0.3 * s * s, 0.0, -0.1 * s * s, 0.2 * s * s, 0.05 * s * s];
+            let (a, b) = (margin(&c, 0, &w), margin(&c, 1, &w));
+            assert!(a * b < 0.0, "{a} {b}");
+            let r = *reference.get_or_insert((a, b));
+            assert!((a - r.0).abs() < 1e-12 && (b - r.1).abs() < 1e-12, "{s}: {a} {b} vs {r:?}");
+        }
+    }
+
+    #[test]
+    fn flat_tets_are_named() {
+        let points = [0., 0., 0., 1., 0., 0., 0., 1., 0., 1., 1., 0., 0.3, 0.3, 1.];
+        let tets = [[0, 1, 2, 3], [4, 1, 2, 3]];
+        let opts = Options::default();
+        let interior = faces::<Tet>(&tets, 5, &opts).unwrap().interior;
+        let c = conditions(&TetView::new(&points, 3, &tets).unwrap(), &interior, &opts).unwrap();
+        assert_eq!(c.flat, vec![0]);
+    }
+}
