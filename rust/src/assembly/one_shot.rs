@@ -8,7 +8,8 @@ use crate::error::Result;
 use crate::assembly::order::Layout;
 use crate::mesh::MeshView;
 use crate::options::{LaplacianKind, MassKind, Options};
-use crate::assembly::pass::{per_element, per_element_pair};
+use crate::assembly::pass::values;
+use crate::element::Request;
 use crate::element::Simplex;
 use crate::assembly::pattern::Rows;
 use rayon::prelude::*;
@@ -54,7 +55,7 @@ pub fn laplacian<S: Simplex>(mesh: &MeshView<S>, kind: LaplacianKind, opts: &Opt
     super::install::<S, _>(opts, || {
         let pass = |elements: &Elements<S>| {
             let mut w = vec![S::EdgeValues::default(); mesh.n_elements()];
-            per_element(elements, opts, &mut w, |el| el.laplacian(kind))?;
+            values(elements, opts, Request { laplacian: Some(kind), mass: None }, Some(&mut w), None)?;
             Ok((Some(w), None))
         };
         let (l, _) = one_shot(mesh, opts, None, pass)?;
@@ -76,7 +77,7 @@ pub fn mass<S: Simplex>(mesh: &MeshView<S>, kind: MassKind, opts: &Options) -> R
     super::install::<S, _>(opts, || {
         let pass = |elements: &Elements<S>| {
             let mut m = vec![S::CornerValues::default(); mesh.n_elements()];
-            per_element(elements, opts, &mut m, |el| el.corner_mass(kind))?;
+            values(elements, opts, Request { laplacian: None, mass: Some(kind) }, None, Some(&mut m))?;
             Ok((None, Some(m)))
         };
         let (_, m) = one_shot(mesh, opts, Some(kind), pass)?;
@@ -109,7 +110,7 @@ pub fn operators<S: Simplex>(
             let m_elements = mesh.n_elements();
             let mut w = vec![S::EdgeValues::default(); m_elements];
             let mut m = vec![S::CornerValues::default(); m_elements];
-            per_element_pair(elements, opts, &mut w, &mut m, |el| (el.laplacian(lap), el.corner_mass(mass)))?;
+            values(elements, opts, Request { laplacian: Some(lap), mass: Some(mass) }, Some(&mut w), Some(&mut m))?;
             Ok((Some(w), Some(m)))
         };
         let (l, m) = one_shot(mesh, opts, Some(mass), pass)?;
@@ -127,7 +128,8 @@ pub fn contributions<S: Simplex>(
     let kind = kind.check()?;
     super::install::<S, _>(opts, || {
         let mut w = vec![S::EdgeValues::default(); mesh.n_elements()];
-        per_element(&Elements::new(*mesh, opts)?, opts, &mut w, |el| el.laplacian(kind)).map(|_| w)
+        let request = Request { laplacian: Some(kind), mass: None };
+        values(&Elements::new(*mesh, opts)?, opts, request, Some(&mut w), None).map(|_| w)
     })
 }
 
