@@ -183,6 +183,25 @@ pub(crate) fn values_of<S: Simplex>(
     })
 }
 
+/// Scratch handed to parallel tasks and taken back: a pass allocates one per task running
+/// at once (about one per worker), not one per task.
+pub(crate) struct Pool<T>(Mutex<Vec<T>>);
+
+impl<T> Pool<T> {
+    pub fn new() -> Self {
+        Pool(Mutex::new(Vec::new()))
+    }
+
+    /// `f` of a scratch from the pool, or of `make()` when none is free.
+    pub fn with<R>(&self, make: impl FnOnce() -> T, f: impl FnOnce(&mut T) -> R) -> R {
+        let taken = self.0.lock().unwrap_or_else(|e| e.into_inner()).pop();
+        let mut scratch = taken.unwrap_or_else(make);
+        let result = f(&mut scratch);
+        self.0.lock().unwrap_or_else(|e| e.into_inner()).push(scratch);
+        result
+    }
+}
+
 /// Elements per work item (and per poll of the cancel flag).
 pub(crate) const CHUNK: usize = 2048;
 

@@ -9,7 +9,9 @@ use crate::assembly::order::Layout;
 use crate::options::{MassKind, Options};
 use crate::element::{edge_index, Simplex};
 use crate::topology::group::Incidence;
-use crate::assembly::pattern::{for_each_row, rows_in_internal_order, Rows, Topology};
+use crate::assembly::pass::{Elements, FirstFault, Pool, CHUNK};
+use crate::assembly::pattern::{for_each_row, rows_in_internal_order, RowScratch, Topology, ROW_CHUNK};
+use crate::element::Request;
 use rayon::prelude::*;
 
 /// Fills one row of an operator: entry `(i, j)` is the sum, over the elements around `i`
@@ -77,50 +79,251 @@ fn gather_rows<S: Simplex>(
     }
 }
 
-/// One-shot assembly: every row is built once, its values filled at once into its chunk's
-/// buffers, then moved to the user's order. Returns the row starts, the column indices
-/// and, if asked, the Laplacian's values (from per-element weights) and the consistent
-/// mass's values (from per-element measures in slot 0 of `vol`).
-#[allow(clippy::type_complexity)]
-fn assemble_rows<S: Simplex>(
-    rows: &Rows<S>,
-    vertex_of: &[u32],
-    w: Option<&[S::EdgeValues]>,
-    vol: Option<&[S::CornerValues]>,
+/// Elements per stripe of a one-shot assembly (the per-element values of a stripe are held
+/// at once: 48 bytes per tet for a Laplacian, 32 more for a mass).
+const STRIPE_ELEMENTS: usize = 1 << 16;
+
+/// The per-element values of one stripe and the scratch of its rows (one per worker).
+struct StripeScratch<S: Simplex> {
+    /// Elements around the stripe's rows from earlier stripes ("ghosts"), ascending.
+    ghosts: Vec<u32>,
+    w: Vec<S::EdgeValues>,
+    m: Vec<S::CornerValues>,
+    /// The columns of the current row.
+    rows: RowScratch,
+    /// Position in the current row of every internal vertex (stale outside it).
+    position: Vec<u32>,
+    /// The place of every ghost in the values (stale for other elements).
+    local_of: Vec<u32>,
+    kernel: Vec<f64>,
+    /// The values of the current row.
+    row: Vec<f64>,
+}
+
+/// The output rows of one stripe (user-order slices, listed in internal order).
+struct StripeOut<'s, 'a> {
+    rows: std::ops::Range<usize>,
+    indices: &'s mut [&'a mut [u32]],
+    lap: Option<&'s mut [&'a mut [f64]]>,
+    fem: Option<&'s mut [&'a mut [f64]]>,
+    lumped: Option<&'s mut [f64]>,
+}
+
+/// `v` (if any) split at `bounds`, or no part for each stripe.
+fn stripes_of<'s, T>(v: Option<&'s mut [T]>, bounds: &[usize]) -> Vec<Option<&'s mut [T]>> {
+    match v {
+        Some(v) => split_at_bounds(v, bounds).into_iter().map(Some).collect(),
+        None => (1..bounds.len()).map(|_| None).collect(),
+    }
+}
+
+/// `v` split at `bounds` (ascending, from 0 to `v.len()`).
+fn split_at_bounds<'a, T>(mut v: &'a mut [T], bounds: &[usize]) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(bounds.len().saturating_sub(1));
+    for w in bounds.windows(2) {
+        let (head, rest) = v.split_at_mut(w[1] - w[0]);
+        out.push(head);
+        v = rest;
+    }
+    out
+}
+
+/// One-shot assembly of `request` on the pattern `pattern`: the Laplacian from the
+/// elements' edge values, the mass from their corner values.
+///
+/// The internal rows are cut into stripes of about [`STRIPE_ELEMENTS`] elements, worked on
+/// in parallel. A stripe computes the values of its elements (those whose first vertex is
+/// one of its rows, a contiguous range of the internal order) and of the elements of
+/// earlier stripes around its rows, then fills its rows in place: entry `(i, j)` is the
+/// sum over the elements around `i` in ascending user index (the corner incidence) of
+/// their value at edge `ij`; the diagonal is minus the row's sum in column order (the
+/// Laplacian) or the FEM diagonal; a lumped mass is the sum of the corner values. Only a
+/// stripe's values are held at once, and every output value is written once, in its
+/// place. [`gather_rows`] sums the same way: one-shot, cached and updated operators agree
+/// bit for bit.
+pub(crate) fn assemble<S: Simplex>(
+    layout: &Layout<S>,
+    elements: &Elements<S>,
+    corners: &Incidence,
+    indptr: Vec<usize>,
+    request: Request,
     opts: &Options,
-) -> Result<(Vec<usize>, Vec<u32>, Option<Vec<f64>>, Option<Vec<f64>>)> {
-    #[derive(Default)]
-    struct Values {
-        cols: Vec<u32>,
-        lap: Vec<f64>,
-        fem: Vec<f64>,
+) -> Result<(Option<Csr>, Option<Mass>)> {
+    let (n, nnz) = (layout.n_vertices(), *indptr.last().expect("n + 1 entries"));
+    let cells = &layout.cells[..];
+    let fem_mass = request.mass == Some(MassKind::Fem);
+    let mut indices = vec![0u32; nnz];
+    let mut lap = request.laplacian.map(|_| vec![0.0; nnz]);
+    let mut fem = fem_mass.then(|| vec![0.0; nnz]);
+    let mut lumped = request.mass.filter(|_| !fem_mass).map(|_| vec![0.0; n]);
+    // stripes: whole row chunks, about STRIPE_ELEMENTS elements each, at least four per
+    // worker (the first vertex of internal element t is non-decreasing in t)
+    let per_stripe = (STRIPE_ELEMENTS * n / cells.len().max(1)).min(n / (4 * rayon::current_num_threads())).max(1);
+    let per_stripe = per_stripe.div_ceil(ROW_CHUNK) * ROW_CHUNK;
+    let bounds: Vec<usize> = (0..n).step_by(per_stripe).chain([n]).collect();
+    let first = |c: &S::Cell| *c.as_ref().iter().min().expect("corners") as usize;
+    let element_bounds: Vec<usize> = bounds.iter().map(|&v| cells.partition_point(|c| first(c) < v)).collect();
+    {
+        let (indptr, vertex_of) = (&indptr, &layout.vertex_of[..]);
+        let mut index_rows = rows_in_internal_order(&mut indices, indptr, vertex_of);
+        let mut lap_rows = lap.as_deref_mut().map(|d| rows_in_internal_order(d, indptr, vertex_of));
+        let mut fem_rows = fem.as_deref_mut().map(|d| rows_in_internal_order(d, indptr, vertex_of));
+        let outs: Vec<StripeOut> = split_at_bounds(&mut index_rows, &bounds)
+            .into_iter()
+            .zip(stripes_of(lap_rows.as_deref_mut(), &bounds))
+            .zip(stripes_of(fem_rows.as_deref_mut(), &bounds))
+            .zip(stripes_of(lumped.as_deref_mut(), &bounds))
+            .enumerate()
+            .map(|(s, (((indices, lap), fem), lumped))| StripeOut { rows: bounds[s]..bounds[s + 1], indices, lap, fem, lumped })
+            .collect();
+        let pool = Pool::new();
+        let faults = outs
+            .into_par_iter()
+            .enumerate()
+            .map(|(s, out)| {
+                let make = || StripeScratch::<S> {
+                    ghosts: vec![],
+                    w: vec![],
+                    m: vec![],
+                    rows: RowScratch::new(n),
+                    position: vec![0; n],
+                    local_of: vec![0; cells.len()],
+                    kernel: vec![0.0; elements.scratch_len()],
+                    row: vec![],
+                };
+                let own = element_bounds[s]..element_bounds[s + 1];
+                pool.with(make, |scratch| stripe::<S>(layout, elements, corners, request, own, out, scratch, opts))
+            })
+            .collect::<Result<Vec<FirstFault>>>()?;
+        let mut first = FirstFault::default();
+        faults.into_iter().for_each(|f| first.merge(f));
+        first.into_result(opts.degenerate)?;
     }
-    /// `values` grown by one row of `len` zeros: the new row.
-    fn new_row(values: &mut Vec<f64>, len: usize) -> &mut [f64] {
-        let start = values.len();
-        values.resize(start + len, 0.0);
-        &mut values[start..]
-    }
-    let off = S::FEM.0;
-    let built = rows.build_all(opts, |v, row, out: &mut Values| {
-        let items = rows.corners.of(v);
-        let diag = row.diagonal as usize;
-        out.cols.extend_from_slice(row.cols);
-        if let Some(w) = w {
-            let values = new_row(&mut out.lap, row.cols.len());
-            fill_row::<S>(values, items, row.slots, diag, &|t, e| w[t].as_ref()[e], |s| -s);
-        }
-        if let Some(vol) = vol {
-            let d = fem_diagonal::<S>(items, vol);
-            let values = new_row(&mut out.fem, row.cols.len());
-            fill_row::<S>(values, items, row.slots, diag, &|t, _| vol[t].as_ref()[0] / off, |_| d);
-        }
-    })?;
     opts.cancelled()?;
-    let indices = built.gather(vertex_of, |b| &b.cols);
-    let lap = w.map(|_| built.gather(vertex_of, |b| &b.lap));
-    let fem = vol.map(|_| built.gather(vertex_of, |b| &b.fem));
-    Ok((built.indptr, indices, lap, fem))
+    let laplacian = lap.map(|data| Csr { n, indptr: indptr.clone(), indices: indices.clone(), data });
+    let mass = match (lumped, fem) {
+        (Some(internal), _) => Some(Mass::Lumped(layout.to_user_vertices(&internal))),
+        (_, Some(data)) => Some(Mass::Consistent(Csr { n, indptr, indices, data })),
+        _ => None,
+    };
+    if let Some(l) = &laplacian {
+        finite_rows(&l.indptr, &l.data)?;
+    }
+    match &mass {
+        Some(Mass::Lumped(m)) => finite_rows(&(0..=n).collect::<Vec<_>>(), m)?,
+        Some(Mass::Consistent(m)) => finite_rows(&m.indptr, &m.data)?,
+        None => {}
+    }
+    Ok((laplacian, mass))
+}
+
+/// Rows ahead whose output lines a stripe touches before writing the current one.
+const AHEAD: usize = 4;
+
+/// One stripe of [`assemble`]: the values of its elements `own` and of its ghosts, then
+/// its rows. Returns its first faulty element.
+#[allow(clippy::too_many_arguments)]
+fn stripe<S: Simplex>(
+    layout: &Layout<S>,
+    elements: &Elements<S>,
+    corners: &Incidence,
+    request: Request,
+    own: std::ops::Range<usize>,
+    out: StripeOut,
+    scratch: &mut StripeScratch<S>,
+    opts: &Options,
+) -> Result<FirstFault> {
+    let k = S::CORNERS;
+    opts.cancelled()?;
+    let StripeScratch { ghosts, w, m, rows: builder, position, local_of, kernel, row } = scratch;
+    // the elements of earlier stripes around these rows, each with its place in the values
+    ghosts.clear();
+    for v in out.rows.clone() {
+        ghosts.extend(corners.of(v).iter().map(|&q| q / k as u32).filter(|&t| (t as usize) < own.start));
+    }
+    ghosts.sort_unstable();
+    ghosts.dedup();
+    for (i, &g) in ghosts.iter().enumerate() {
+        local_of[g as usize] = (own.len() + i) as u32;
+    }
+    let count = own.len() + ghosts.len();
+    let t_of = |i: usize| if i < own.len() { own.start + i } else { ghosts[i - own.len()] as usize };
+    let mut faults = FirstFault::default();
+    let lap_values = request.laplacian.is_some();
+    if lap_values {
+        w.clear();
+        w.resize(count, S::EdgeValues::default());
+    }
+    if request.mass.is_some() {
+        m.clear();
+        m.resize(count, S::CornerValues::default());
+    }
+    for start in (0..count).step_by(CHUNK) {
+        opts.cancelled()?;
+        let len = CHUNK.min(count - start);
+        let (ws, ms) = (lap_values.then(|| &mut w[start..start + len]), request.mass.map(|_| &mut m[start..start + len]));
+        elements.evaluate(len, |i| t_of(start + i), request, ws, ms, kernel, &mut faults);
+    }
+    let local = |t: usize| if t >= own.start { t - own.start } else { local_of[t] as usize };
+    let StripeOut { rows, indices, mut lap, mut fem, mut lumped } = out;
+    let fem_off = S::FEM.0;
+    for (r, v) in rows.enumerate() {
+        if r % ROW_CHUNK == 0 {
+            opts.cancelled()?;
+        }
+        // touch a later row's place in the output (random in the user's order), so that
+        // its cache lines are on their way when it is written
+        if let Some(ahead) = indices.get(r + AHEAD) {
+            std::hint::black_box(ahead.first().copied());
+            if let Some(lap) = lap.as_deref() {
+                std::hint::black_box(lap[r + AHEAD].first().copied());
+            }
+        }
+        // the row's columns, sorted by user index, and where each lands
+        let items = corners.of(v);
+        let keys = builder.columns::<S>(v, items, &layout.cells, &layout.vertex_of);
+        for (p, (&key, index)) in keys.iter().zip(indices[r].iter_mut()).enumerate() {
+            position[key as u32 as usize] = p as u32;
+            *index = (key >> 32) as u32;
+        }
+        let (len, diag) = (keys.len(), position[v] as usize);
+        // each row is summed in a buffer and then written to its place: stores only there
+        if let Some(lap) = lap.as_deref_mut() {
+            row.clear();
+            row.resize(len, 0.0);
+            for &item in items {
+                let (t, c) = (item as usize / k, item as usize % k);
+                let (cell, values) = (layout.cells[t].as_ref(), w[local(t)]);
+                for (o, &u) in cell.iter().enumerate() {
+                    if o != c {
+                        row[position[u as usize] as usize] += values.as_ref()[edge_index(k, c, o)];
+                    }
+                }
+            }
+            let sum: f64 = row.iter().sum();
+            row[diag] = -sum;
+            lap[r].copy_from_slice(row);
+        }
+        if let Some(fem) = fem.as_deref_mut() {
+            row.clear();
+            row.resize(len, 0.0);
+            for &item in items {
+                let (t, c) = (item as usize / k, item as usize % k);
+                let value = m[local(t)].as_ref()[0] / fem_off;
+                for (o, &u) in layout.cells[t].as_ref().iter().enumerate() {
+                    if o != c {
+                        row[position[u as usize] as usize] += value;
+                    }
+                }
+            }
+            row[diag] = items.iter().map(|&q| m[local(q as usize / k)].as_ref()[0] / S::FEM.1).sum();
+            fem[r].copy_from_slice(row);
+        }
+        if let Some(lumped) = lumped.as_deref_mut() {
+            lumped[r] = items.iter().map(|&q| m[local(q as usize / k)].as_ref()[q as usize % k]).sum();
+        }
+    }
+    Ok(faults)
 }
 
 /// Sum over the elements around every internal vertex (ascending user index) of
@@ -134,35 +337,6 @@ fn gather_vertices<S: Simplex>(
         .into_par_iter()
         .map(|v| corners.of(v).iter().map(|&q| corner(q as usize / k, q as usize % k)).sum())
         .collect()
-}
-
-/// One-shot assembly of the requested operators from per-element values in internal
-/// order: the Laplacian from edge weights `w`, the mass of `kind` from corner masses `m`.
-pub(crate) fn assemble<S: Simplex>(
-    layout: &Layout<S>,
-    rows: Rows<S>,
-    w: Option<&[S::EdgeValues]>,
-    mass: Option<(MassKind, &[S::CornerValues])>,
-    opts: &Options,
-) -> Result<(Option<Csr>, Option<Mass>)> {
-    let fem = mass.and_then(|(kind, m)| (kind == MassKind::Fem).then_some(m));
-    let lumped = mass.filter(|(kind, _)| *kind != MassKind::Fem).map(|(_, m)| {
-        let internal = gather_vertices::<S>(&rows.corners, |t, c| m[t].as_ref()[c]);
-        Mass::Lumped(layout.to_user_vertices(&internal))
-    });
-    let (indptr, indices, lap, fem) = assemble_rows(&rows, &layout.vertex_of, w, fem, opts)?;
-    let n = layout.n_vertices();
-    let laplacian = lap.map(|data| Csr { n, indptr: indptr.clone(), indices: indices.clone(), data });
-    let mass = lumped.or_else(|| fem.map(|data| Mass::Consistent(Csr { n, indptr, indices, data })));
-    if let Some(l) = &laplacian {
-        finite_rows(&l.indptr, &l.data)?;
-    }
-    match &mass {
-        Some(Mass::Lumped(m)) => finite_rows(&(0..=n).collect::<Vec<_>>(), m)?,
-        Some(Mass::Consistent(m)) => finite_rows(&m.indptr, &m.data)?,
-        None => {}
-    }
-    Ok((laplacian, mass))
 }
 
 /// [`crate::Error::SumOverflow`] for the first row (user order) of `data` (split at
