@@ -21,7 +21,7 @@ use crate::error::Result;
 use crate::mesh::MeshView;
 use crate::options::Options;
 use crate::element::Simplex;
-use crate::topology::group::group_by;
+use crate::topology::group::group_u32;
 use rayon::prelude::*;
 
 /// Bits per axis of the Morton code.
@@ -156,7 +156,7 @@ fn element_order<S: Simplex>(cells: &[S::Cell], rank: &[u32], n: usize, opts: &O
         let min = cells[t].as_ref().iter().map(|&v| rank[v as usize]).min().expect("a cell has corners");
         (min, t as u32)
     };
-    Ok(group_by(n, cells.len(), first, opts)?.1)
+    Ok(group_u32(n, cells.len(), first, opts)?.1)
 }
 
 #[cfg(test)]

@@ -17,7 +17,7 @@ use crate::assembly::pass::Pool;
 use crate::element::Simplex;
 use crate::error::Result;
 use crate::options::Options;
-use crate::topology::group::{group_by, groups_mut, Incidence};
+use crate::topology::group::{group_u32, groups_mut, Incidence};
 use rayon::prelude::*;
 
 /// Rows per work item of the row passes (and per poll of the cancel flag).
@@ -373,7 +373,7 @@ pub(crate) fn corner_incidence<S: Simplex>(
         let item = k as u32 * internal_of[e] + c as u32;
         (rank[cells[e].as_ref()[c] as usize], item)
     };
-    let (offsets, items) = group_by(rank.len(), k * cells.len(), corner, opts)?;
+    let (offsets, items) = group_u32(rank.len(), k * cells.len(), corner, opts)?;
     Ok(Incidence { offsets, items })
 }
 
