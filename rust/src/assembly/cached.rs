@@ -61,6 +61,8 @@ pub struct Update {
 pub struct CachedMesh<S: Simplex = Tet> {
     /// The mesh in internal order (coordinates kept up to date by updates).
     layout: Layout<S>,
+    /// The coordinates in the user's order (kept up to date too: updates compare with them).
+    user_points: Vec<f64>,
     /// Internal elements with the barycentric boundary fix.
     boundary: Option<Vec<bool>>,
     opts: Options,
@@ -98,17 +100,12 @@ impl<S: Simplex> CachedMesh<S> {
         })?;
         opts.cancelled()?;
         let (laplacians, masses) = (vec![], vec![]);
-        Ok(CachedMesh { layout, boundary, opts, topology, laplacians, masses })
+        Ok(CachedMesh { layout, user_points: points, boundary, opts, topology, laplacians, masses })
     }
 
     /// The current coordinates in the user's order, row-major `(n, dim)` (a copy).
     pub fn points(&self) -> Vec<f64> {
-        let (dim, internal) = (self.layout.dim, &self.layout.points);
-        let mut out = vec![0.0; internal.len()];
-        for (p, &u) in internal.chunks_exact(dim).zip(&self.layout.vertex_of) {
-            out[u as usize * dim..][..dim].copy_from_slice(p);
-        }
-        out
+        self.user_points.clone()
     }
 
     /// The elements in the user's order and numbering (a copy).
@@ -233,7 +230,7 @@ impl<S: Simplex> CachedMesh<S> {
     /// The (user) vertices whose coordinates differ in `points` (same shape as the mesh's),
     /// ascending.
     pub fn moved_vertices(&self, points: &[f64]) -> Result<Vec<u32>> {
-        let (dim, current) = (self.layout.dim, &self.layout.points);
+        let (dim, current) = (self.layout.dim, &self.user_points);
         if points.len() != current.len() {
             return Err(Error::Shape {
                 what: format!(
@@ -244,12 +241,22 @@ impl<S: Simplex> CachedMesh<S> {
                 ),
             });
         }
-        let rank = &self.layout.rank;
+        // blocks of vertices compared at once, then vertex by vertex where they differ
+        const BLOCK: usize = 4096;
+        let current = &self.user_points;
         super::install::<S, _>(&self.opts, || {
-            Ok((0..current.len() / dim)
-                .into_par_iter()
-                .filter(|&u| points[u * dim..][..dim] != current[rank[u] as usize * dim..][..dim])
-                .map(|u| u as u32)
+            Ok(points
+                .par_chunks(BLOCK * dim)
+                .zip(current.par_chunks(BLOCK * dim))
+                .enumerate()
+                .flat_map_iter(|(b, (new, old))| {
+                    let mut moved = Vec::new();
+                    if new != old {
+                        let pairs = new.chunks_exact(dim).zip(old.chunks_exact(dim));
+                        moved.extend(pairs.enumerate().filter(|(_, (p, q))| p != q).map(|(k, _)| (b * BLOCK + k) as u32));
+                    }
+                    moved
+                })
                 .collect())
         })
     }
@@ -285,10 +292,17 @@ impl<S: Simplex> CachedMesh<S> {
                 points[span(v)].copy_from_slice(c);
             }
         };
+        let write_user = |points: &mut [f64], values: &[f64]| {
+            for (&u, c) in moved.iter().zip(values.chunks_exact(dim)) {
+                points[span(u)].copy_from_slice(c);
+            }
+        };
         write(&mut self.layout.points, coords);
+        write_user(&mut self.user_points, coords);
         let result = self.refresh(&internal);
         if result.is_err() {
             write(&mut self.layout.points, &old);
+            write_user(&mut self.user_points, &old);
         }
         result
     }
