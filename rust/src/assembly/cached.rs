@@ -91,9 +91,9 @@ impl<S: Simplex> CachedMesh<S> {
             None => mesh,
         };
         let (layout, topology, boundary) = super::install::<S, _>(&opts, || {
-            let layout = Layout::new(&mesh, &opts)?;
+            let (layout, corners) = Layout::with_corners(&mesh, &opts)?;
             let (topology, boundary) = rayon::join(
-                || Topology::new::<S>(&layout, &cells, &opts),
+                || Topology::new::<S>(&layout, corners, &opts),
                 || boundary_mask(&layout.mesh(), &opts),
             );
             Ok((layout, topology?, boundary?))

@@ -11,7 +11,7 @@ use crate::options::{LaplacianKind, MassKind, Options};
 use crate::assembly::pass::values;
 use crate::element::Request;
 use crate::element::Simplex;
-use crate::assembly::pattern::{corner_incidence, row_starts};
+use crate::assembly::pattern::row_starts;
 use rayon::prelude::*;
 use std::borrow::Cow;
 
@@ -19,8 +19,7 @@ use std::borrow::Cow;
 /// the pattern, then the values of the elements and the rows, stripe by stripe
 /// ([`assemble`]).
 fn one_shot<S: Simplex>(mesh: &MeshView<S>, opts: &Options, request: Request) -> Result<(Option<Csr>, Option<Mass>)> {
-    let mut layout = Layout::new(mesh, opts)?;
-    let corners = corner_incidence::<S>(mesh.cells(), &layout.rank, &layout.internal_of, opts)?;
+    let (mut layout, corners) = Layout::with_corners(mesh, opts)?;
     layout.internal_of = Vec::new(); // not needed any more
     let indptr = row_starts::<S>(&layout.cells, &corners, &layout.vertex_of, opts)?;
     let internal = layout.mesh();

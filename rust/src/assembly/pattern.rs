@@ -193,10 +193,10 @@ pub struct Topology {
 }
 
 impl Topology {
-    /// Builds the topology of a mesh (its user-order `cells`) in its internal order (see
-    /// [`crate::assembly::order`]).
-    pub(crate) fn new<S: Simplex>(layout: &Layout<S>, cells: &[S::Cell], opts: &Options) -> Result<Self> {
-        let rows = Rows::<S>::new(layout, cells, opts)?;
+    /// Builds the topology of a mesh in its internal order `layout` (see
+    /// [`crate::assembly::order`]) with its corner incidence `corners`.
+    pub(crate) fn new<S: Simplex>(layout: &Layout<S>, corners: Incidence, opts: &Options) -> Result<Self> {
+        let rows = Rows::<S> { cells: &layout.cells, vertex_of: &layout.vertex_of, corners };
         let indptr = row_starts::<S>(&layout.cells, &rows.corners, &layout.vertex_of, opts)?;
         let (n, k) = (layout.n_vertices(), S::CORNERS - 1);
         let mut indices = vec![0u32; *indptr.last().expect("n + 1 entries")];
@@ -398,7 +398,8 @@ mod tests {
             weights: None,
             dim: 3,
         };
-        let t = Topology::new::<Tet>(&layout, &user_cells, &Options::default()).unwrap();
+        let corners = corner_incidence::<Tet>(&user_cells, &layout.rank, &layout.internal_of, &Options::default()).unwrap();
+        let t = Topology::new::<Tet>(&layout, corners, &Options::default()).unwrap();
         assert_eq!(t.edges().len(), 9);
         let row = |i: usize| &t.indices()[t.indptr()[i]..t.indptr()[i + 1]];
         assert_eq!(row(5), &[5]); // unreferenced: diagonal only

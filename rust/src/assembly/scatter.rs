@@ -81,7 +81,7 @@ fn gather_rows<S: Simplex>(
 
 /// Elements per stripe of a one-shot assembly (the per-element values of a stripe are held
 /// at once: 48 bytes per tet for a Laplacian, 32 more for a mass).
-const STRIPE_ELEMENTS: usize = 1 << 16;
+const STRIPE_ELEMENTS: usize = 1 << 15;
 
 /// The per-element values of one stripe and the scratch of its rows (one per worker).
 struct StripeScratch<S: Simplex> {
