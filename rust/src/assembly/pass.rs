@@ -174,12 +174,27 @@ pub(crate) fn values_of<S: Simplex>(
     m: Option<&mut [S::CornerValues]>,
 ) -> Result<FirstFault> {
     let count = listed.map_or(elements.mesh.n_elements(), <[u32]>::len);
+    let t_of = |k: usize| listed.map_or(k, |l| l[k] as usize);
+    values_by(elements, opts, count, t_of, request, w, m)
+}
+
+/// `request` on `count` elements, the `k`-th being element `t_of(k)`, in parallel chunks:
+/// values into `w` and `m` (one slot per element listed, the default for a faulty one);
+/// the first faulty element.
+pub(crate) fn values_by<S: Simplex>(
+    elements: &Elements<S>,
+    opts: &Options,
+    count: usize,
+    t_of: impl Fn(usize) -> usize + Sync,
+    request: Request,
+    w: Option<&mut [S::EdgeValues]>,
+    m: Option<&mut [S::CornerValues]>,
+) -> Result<FirstFault> {
     let n = count.div_ceil(CHUNK);
     let chunks = chunks_of(w, n).into_par_iter().zip(chunks_of(m, n));
     chunked(elements, opts, chunks, |c, (w, m), scratch, faults| {
         let len = CHUNK.min(count - c * CHUNK);
-        let t_of = |k: usize| listed.map_or(c * CHUNK + k, |l| l[c * CHUNK + k] as usize);
-        elements.evaluate(len, t_of, request, w, m, scratch, faults);
+        elements.evaluate(len, |k| t_of(c * CHUNK + k), request, w, m, scratch, faults);
     })
 }
 

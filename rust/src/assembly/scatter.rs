@@ -9,7 +9,7 @@ use crate::assembly::order::Layout;
 use crate::options::{MassKind, Options};
 use crate::element::{edge_index, Simplex};
 use crate::topology::group::Incidence;
-use crate::assembly::pass::{Elements, FirstFault, Pool, CHUNK};
+use crate::assembly::pass::{values_by, Elements, FirstFault, Pool};
 use crate::assembly::pattern::{for_each_row, rows_in_internal_order, RowScratch, Topology, ROW_CHUNK};
 use crate::element::Request;
 use rayon::prelude::*;
@@ -81,36 +81,40 @@ fn gather_rows<S: Simplex>(
 
 /// Elements per stripe of a one-shot assembly (the per-element values of a stripe are held
 /// at once: 48 bytes per tet for a Laplacian, 32 more for a mass).
-const STRIPE_ELEMENTS: usize = 1 << 15;
+const STRIPE_ELEMENTS: usize = 1 << 16;
 
-/// The per-element values of one stripe and the scratch of its rows (one per worker).
-struct StripeScratch<S: Simplex> {
-    /// Elements around the stripe's rows from earlier stripes ("ghosts"), ascending.
-    ghosts: Vec<u32>,
-    w: Vec<S::EdgeValues>,
-    m: Vec<S::CornerValues>,
-    /// The columns of the current row.
+/// The scratch of one worker filling rows.
+struct RowWork {
     rows: RowScratch,
     /// Position in the current row of every internal vertex (stale outside it).
     position: Vec<u32>,
-    /// The place of every ghost in the values (stale for other elements).
-    local_of: Vec<u32>,
-    kernel: Vec<f64>,
     /// The values of the current row.
     row: Vec<f64>,
 }
 
-/// The output rows of one stripe (user-order slices, listed in internal order).
-struct StripeOut<'s, 'a> {
-    rows: std::ops::Range<usize>,
+/// The output rows of some internal rows (user-order slices, listed in internal order).
+struct RowsOut<'s, 'a> {
     indices: &'s mut [&'a mut [u32]],
     lap: Option<&'s mut [&'a mut [f64]]>,
     fem: Option<&'s mut [&'a mut [f64]]>,
     lumped: Option<&'s mut [f64]>,
 }
 
-/// `v` (if any) split at `bounds`, or no part for each stripe.
-fn stripes_of<'s, T>(v: Option<&'s mut [T]>, bounds: &[usize]) -> Vec<Option<&'s mut [T]>> {
+impl<'s, 'a> RowsOut<'s, 'a> {
+    /// The outputs split at `bounds` (internal rows relative to the first).
+    fn split(self, bounds: &[usize]) -> Vec<RowsOut<'s, 'a>> {
+        split_at_bounds(self.indices, bounds)
+            .into_iter()
+            .zip(parts_of(self.lap, bounds))
+            .zip(parts_of(self.fem, bounds))
+            .zip(parts_of(self.lumped, bounds))
+            .map(|(((indices, lap), fem), lumped)| RowsOut { indices, lap, fem, lumped })
+            .collect()
+    }
+}
+
+/// `v` (if any) split at `bounds`, or no part for each.
+fn parts_of<'s, T>(v: Option<&'s mut [T]>, bounds: &[usize]) -> Vec<Option<&'s mut [T]>> {
     match v {
         Some(v) => split_at_bounds(v, bounds).into_iter().map(Some).collect(),
         None => (1..bounds.len()).map(|_| None).collect(),
@@ -128,19 +132,19 @@ fn split_at_bounds<'a, T>(mut v: &'a mut [T], bounds: &[usize]) -> Vec<&'a mut [
     out
 }
 
-/// One-shot assembly of `request` on the pattern `pattern`: the Laplacian from the
-/// elements' edge values, the mass from their corner values.
+/// One-shot assembly of `request` on the rows starting at `indptr` (user order): the
+/// Laplacian from the elements' edge values, the mass from their corner values.
 ///
-/// The internal rows are cut into stripes of about [`STRIPE_ELEMENTS`] elements, worked on
-/// in parallel. A stripe computes the values of its elements (those whose first vertex is
-/// one of its rows, a contiguous range of the internal order) and of the elements of
-/// earlier stripes around its rows, then fills its rows in place: entry `(i, j)` is the
-/// sum over the elements around `i` in ascending user index (the corner incidence) of
-/// their value at edge `ij`; the diagonal is minus the row's sum in column order (the
-/// Laplacian) or the FEM diagonal; a lumped mass is the sum of the corner values. Only a
-/// stripe's values are held at once, and every output value is written once, in its
-/// place. [`gather_rows`] sums the same way: one-shot, cached and updated operators agree
-/// bit for bit.
+/// The internal rows are cut into stripes of about [`STRIPE_ELEMENTS`] elements, one after
+/// the other. A stripe computes, in parallel chunks, the values of its elements (those
+/// whose first vertex is one of its rows, a contiguous range of the internal order) and of
+/// the elements of earlier stripes around its rows ("ghosts"), then builds and fills its
+/// rows in parallel chunks, each written once in its place: entry `(i, j)` is the sum over
+/// the elements around `i` in ascending user index (the corner incidence) of their value
+/// at edge `ij`; the diagonal is minus the row's sum in column order (the Laplacian) or
+/// the FEM diagonal; a lumped mass is the sum of the corner values. Only one stripe's
+/// values are held at once. [`gather_rows`] sums the same way: one-shot, cached and
+/// updated operators agree bit for bit.
 pub(crate) fn assemble<S: Simplex>(
     layout: &Layout<S>,
     elements: &Elements<S>,
@@ -156,10 +160,9 @@ pub(crate) fn assemble<S: Simplex>(
     let mut lap = request.laplacian.map(|_| vec![0.0; nnz]);
     let mut fem = fem_mass.then(|| vec![0.0; nnz]);
     let mut lumped = request.mass.filter(|_| !fem_mass).map(|_| vec![0.0; n]);
-    // stripes: whole row chunks, about STRIPE_ELEMENTS elements each, at least four per
-    // worker (the first vertex of internal element t is non-decreasing in t)
-    let per_stripe = (STRIPE_ELEMENTS * n / cells.len().max(1)).min(n / (4 * rayon::current_num_threads())).max(1);
-    let per_stripe = per_stripe.div_ceil(ROW_CHUNK) * ROW_CHUNK;
+    // stripes: whole row chunks, about STRIPE_ELEMENTS elements each (the first vertex of
+    // internal element t is non-decreasing in t)
+    let per_stripe = (STRIPE_ELEMENTS * n / cells.len().max(1)).max(1).div_ceil(ROW_CHUNK) * ROW_CHUNK;
     let bounds: Vec<usize> = (0..n).step_by(per_stripe).chain([n]).collect();
     let first = |c: &S::Cell| *c.as_ref().iter().min().expect("corners") as usize;
     let element_bounds: Vec<usize> = bounds.iter().map(|&v| cells.partition_point(|c| first(c) < v)).collect();
@@ -168,35 +171,20 @@ pub(crate) fn assemble<S: Simplex>(
         let mut index_rows = rows_in_internal_order(&mut indices, indptr, vertex_of);
         let mut lap_rows = lap.as_deref_mut().map(|d| rows_in_internal_order(d, indptr, vertex_of));
         let mut fem_rows = fem.as_deref_mut().map(|d| rows_in_internal_order(d, indptr, vertex_of));
-        let outs: Vec<StripeOut> = split_at_bounds(&mut index_rows, &bounds)
-            .into_iter()
-            .zip(stripes_of(lap_rows.as_deref_mut(), &bounds))
-            .zip(stripes_of(fem_rows.as_deref_mut(), &bounds))
-            .zip(stripes_of(lumped.as_deref_mut(), &bounds))
-            .enumerate()
-            .map(|(s, (((indices, lap), fem), lumped))| StripeOut { rows: bounds[s]..bounds[s + 1], indices, lap, fem, lumped })
-            .collect();
+        let all = RowsOut {
+            indices: &mut index_rows,
+            lap: lap_rows.as_deref_mut(),
+            fem: fem_rows.as_deref_mut(),
+            lumped: lumped.as_deref_mut(),
+        };
+        let mut values = Values::<S> { ghosts: vec![], local_of: vec![0; cells.len()], own: 0..0, w: vec![], m: vec![] };
         let pool = Pool::new();
-        let faults = outs
-            .into_par_iter()
-            .enumerate()
-            .map(|(s, out)| {
-                let make = || StripeScratch::<S> {
-                    ghosts: vec![],
-                    w: vec![],
-                    m: vec![],
-                    rows: RowScratch::new(n),
-                    position: vec![0; n],
-                    local_of: vec![0; cells.len()],
-                    kernel: vec![0.0; elements.scratch_len()],
-                    row: vec![],
-                };
-                let own = element_bounds[s]..element_bounds[s + 1];
-                pool.with(make, |scratch| stripe::<S>(layout, elements, corners, request, own, out, scratch, opts))
-            })
-            .collect::<Result<Vec<FirstFault>>>()?;
         let mut first = FirstFault::default();
-        faults.into_iter().for_each(|f| first.merge(f));
+        for (s, out) in all.split(&bounds).into_iter().enumerate() {
+            let (rows, own) = (bounds[s]..bounds[s + 1], element_bounds[s]..element_bounds[s + 1]);
+            first.merge(values.compute(elements, corners, rows.clone(), own, request, opts)?);
+            fill_rows(layout, corners, &values, rows, out, &pool, opts)?;
+        }
         first.into_result(opts.degenerate)?;
     }
     opts.cancelled()?;
@@ -217,72 +205,106 @@ pub(crate) fn assemble<S: Simplex>(
     Ok((laplacian, mass))
 }
 
-/// Rows ahead whose output lines a stripe touches before writing the current one.
-const AHEAD: usize = 4;
-
-/// One stripe of [`assemble`]: the values of its elements `own` and of its ghosts, then
-/// its rows. Returns its first faulty element.
-#[allow(clippy::too_many_arguments)]
-fn stripe<S: Simplex>(
-    layout: &Layout<S>,
-    elements: &Elements<S>,
-    corners: &Incidence,
-    request: Request,
+/// The per-element values of one stripe: its own elements (a range of the internal order)
+/// then its ghosts.
+struct Values<S: Simplex> {
+    /// Elements of earlier stripes around the stripe's rows, ascending.
+    ghosts: Vec<u32>,
+    /// The place of every ghost among the values (stale for other elements).
+    local_of: Vec<u32>,
     own: std::ops::Range<usize>,
-    out: StripeOut,
-    scratch: &mut StripeScratch<S>,
-    opts: &Options,
-) -> Result<FirstFault> {
-    let k = S::CORNERS;
-    opts.cancelled()?;
-    let StripeScratch { ghosts, w, m, rows: builder, position, local_of, kernel, row } = scratch;
-    // the elements of earlier stripes around these rows, each with its place in the values
-    ghosts.clear();
-    for v in out.rows.clone() {
-        ghosts.extend(corners.of(v).iter().map(|&q| q / k as u32).filter(|&t| (t as usize) < own.start));
-    }
-    ghosts.sort_unstable();
-    ghosts.dedup();
-    for (i, &g) in ghosts.iter().enumerate() {
-        local_of[g as usize] = (own.len() + i) as u32;
-    }
-    let count = own.len() + ghosts.len();
-    let t_of = |i: usize| if i < own.len() { own.start + i } else { ghosts[i - own.len()] as usize };
-    let mut faults = FirstFault::default();
-    let lap_values = request.laplacian.is_some();
-    if lap_values {
-        w.clear();
-        w.resize(count, S::EdgeValues::default());
-    }
-    if request.mass.is_some() {
-        m.clear();
-        m.resize(count, S::CornerValues::default());
-    }
-    for start in (0..count).step_by(CHUNK) {
+    w: Vec<S::EdgeValues>,
+    m: Vec<S::CornerValues>,
+}
+
+impl<S: Simplex> Values<S> {
+    /// The values `request` asks for of the elements around `rows`, whose own elements are
+    /// `own`: the first faulty one.
+    fn compute(
+        &mut self,
+        elements: &Elements<S>,
+        corners: &Incidence,
+        rows: std::ops::Range<usize>,
+        own: std::ops::Range<usize>,
+        request: Request,
+        opts: &Options,
+    ) -> Result<FirstFault> {
         opts.cancelled()?;
-        let len = CHUNK.min(count - start);
-        let (ws, ms) = (lap_values.then(|| &mut w[start..start + len]), request.mass.map(|_| &mut m[start..start + len]));
-        elements.evaluate(len, |i| t_of(start + i), request, ws, ms, kernel, &mut faults);
+        let k = S::CORNERS as u32;
+        let items = &corners.items[corners.offsets[rows.start]..corners.offsets[rows.end]];
+        self.ghosts.clear();
+        self.ghosts.extend(items.iter().map(|&q| q / k).filter(|&t| (t as usize) < own.start));
+        self.ghosts.par_sort_unstable();
+        self.ghosts.dedup();
+        for (i, &g) in self.ghosts.iter().enumerate() {
+            self.local_of[g as usize] = (own.len() + i) as u32;
+        }
+        let count = own.len() + self.ghosts.len();
+        let ghosts = &self.ghosts;
+        let t_of = |i: usize| if i < own.len() { own.start + i } else { ghosts[i - own.len()] as usize };
+        self.w.clear();
+        self.m.clear();
+        if request.laplacian.is_some() {
+            self.w.resize(count, S::EdgeValues::default());
+        }
+        if request.mass.is_some() {
+            self.m.resize(count, S::CornerValues::default());
+        }
+        let w = request.laplacian.map(|_| &mut self.w[..]);
+        let m = request.mass.map(|_| &mut self.m[..]);
+        let faults = values_by(elements, opts, count, t_of, request, w, m)?;
+        self.own = own;
+        Ok(faults)
     }
-    let local = |t: usize| if t >= own.start { t - own.start } else { local_of[t] as usize };
-    let StripeOut { rows, indices, mut lap, mut fem, mut lumped } = out;
-    let fem_off = S::FEM.0;
-    for (r, v) in rows.enumerate() {
-        if r % ROW_CHUNK == 0 {
-            opts.cancelled()?;
-        }
-        // touch a later row's place in the output (random in the user's order), so that
-        // its cache lines are on their way when it is written
-        if let Some(ahead) = indices.get(r + AHEAD) {
-            std::hint::black_box(ahead.first().copied());
-            if let Some(lap) = lap.as_deref() {
-                std::hint::black_box(lap[r + AHEAD].first().copied());
-            }
-        }
+
+    /// Where the values of internal element `t` are.
+    #[inline]
+    fn local(&self, t: usize) -> usize {
+        if t >= self.own.start { t - self.own.start } else { self.local_of[t] as usize }
+    }
+}
+
+/// Builds and fills the internal `rows` of a stripe (see [`assemble`]) into `out`, in
+/// parallel chunks of [`ROW_CHUNK`] rows.
+fn fill_rows<S: Simplex>(
+    layout: &Layout<S>,
+    corners: &Incidence,
+    values: &Values<S>,
+    rows: std::ops::Range<usize>,
+    out: RowsOut,
+    pool: &Pool<RowWork>,
+    opts: &Options,
+) -> Result<()> {
+    let n = layout.n_vertices();
+    let bounds: Vec<usize> = (0..rows.len()).step_by(ROW_CHUNK).chain([rows.len()]).collect();
+    out.split(&bounds).into_par_iter().enumerate().try_for_each(|(c, out)| {
+        opts.cancelled()?;
+        let first = rows.start + c * ROW_CHUNK;
+        let make = || RowWork { rows: RowScratch::new(n), position: vec![0; n], row: vec![] };
+        pool.with(make, |work| fill_chunk::<S>(layout, corners, values, first, out, work));
+        Ok(())
+    })
+}
+
+/// [`fill_rows`] for the internal rows from `first` on, one chunk.
+fn fill_chunk<S: Simplex>(
+    layout: &Layout<S>,
+    corners: &Incidence,
+    values: &Values<S>,
+    first: usize,
+    out: RowsOut,
+    work: &mut RowWork,
+) {
+    let k = S::CORNERS;
+    let RowWork { rows: builder, position, row } = work;
+    let RowsOut { indices, mut lap, mut fem, mut lumped } = out;
+    let (w, m) = (&values.w, &values.m);
+    for (r, index_row) in indices.iter_mut().enumerate() {
+        let v = first + r;
         // the row's columns, sorted by user index, and where each lands
         let items = corners.of(v);
         let keys = builder.columns::<S>(v, items, &layout.cells, &layout.vertex_of);
-        for (p, (&key, index)) in keys.iter().zip(indices[r].iter_mut()).enumerate() {
+        for (p, (&key, index)) in keys.iter().zip(index_row.iter_mut()).enumerate() {
             position[key as u32 as usize] = p as u32;
             *index = (key >> 32) as u32;
         }
@@ -293,10 +315,10 @@ fn stripe<S: Simplex>(
             row.resize(len, 0.0);
             for &item in items {
                 let (t, c) = (item as usize / k, item as usize % k);
-                let (cell, values) = (layout.cells[t].as_ref(), w[local(t)]);
+                let (cell, value) = (layout.cells[t].as_ref(), w[values.local(t)]);
                 for (o, &u) in cell.iter().enumerate() {
                     if o != c {
-                        row[position[u as usize] as usize] += values.as_ref()[edge_index(k, c, o)];
+                        row[position[u as usize] as usize] += value.as_ref()[edge_index(k, c, o)];
                     }
                 }
             }
@@ -309,21 +331,20 @@ fn stripe<S: Simplex>(
             row.resize(len, 0.0);
             for &item in items {
                 let (t, c) = (item as usize / k, item as usize % k);
-                let value = m[local(t)].as_ref()[0] / fem_off;
+                let value = m[values.local(t)].as_ref()[0] / S::FEM.0;
                 for (o, &u) in layout.cells[t].as_ref().iter().enumerate() {
                     if o != c {
                         row[position[u as usize] as usize] += value;
                     }
                 }
             }
-            row[diag] = items.iter().map(|&q| m[local(q as usize / k)].as_ref()[0] / S::FEM.1).sum();
+            row[diag] = items.iter().map(|&q| m[values.local(q as usize / k)].as_ref()[0] / S::FEM.1).sum();
             fem[r].copy_from_slice(row);
         }
         if let Some(lumped) = lumped.as_deref_mut() {
-            lumped[r] = items.iter().map(|&q| m[local(q as usize / k)].as_ref()[q as usize % k]).sum();
+            lumped[r] = items.iter().map(|&q| m[values.local(q as usize / k)].as_ref()[q as usize % k]).sum();
         }
     }
-    Ok(faults)
 }
 
 /// Sum over the elements around every internal vertex (ascending user index) of
