@@ -8,11 +8,17 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
 use tetlap::element::tet::derivatives::{dual_vjp, primal_vjp, volume_vjp, Vjp};
+use tetlap::element::tet::batch::{Frames, Lanes, LANES};
 use tetlap::element::tet::{barycentric_mass, dual, power_dual, primal_weights, volume, Placement};
 use tetlap::{local_tet, LocalTet};
 
 /// 100,000 random tets of the unit cube with volume above 0.01 (a fixed sequence).
 fn tets() -> Vec<LocalTet> {
+    corners().iter().map(|x| local_tet([&x[0], &x[1], &x[2], &x[3]], &mut [])).collect()
+}
+
+/// The corners of [`tets`].
+fn corners() -> Vec<[[f64; 3]; 4]> {
     let mut state = 1u64;
     let mut uniform = move || {
         state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -23,7 +29,7 @@ fn tets() -> Vec<LocalTet> {
             let x: [[f64; 3]; 4] = std::array::from_fn(|_| std::array::from_fn(|_| uniform()));
             let t = local_tet([&x[0], &x[1], &x[2], &x[3]], &mut []);
             if volume(&t) > 0.01 {
-                break t;
+                break x;
             }
         })
         .collect()
@@ -54,6 +60,22 @@ fn bench(c: &mut Criterion) {
         v.dual(None, dw.map(|x| 0.5 * x), dm);
         black_box(v.finish());
     });
+    group.finish();
+    // the same tets, LANES at a time, as structure of arrays
+    let batches: Vec<[[Lanes; 3]; 4]> = corners()
+        .chunks_exact(LANES)
+        .map(|b| std::array::from_fn(|k| std::array::from_fn(|a| std::array::from_fn(|i| b[i][k][a]))))
+        .collect();
+    let mut group = c.benchmark_group("batched");
+    group.sample_size(20);
+    group.throughput(Throughput::Elements((batches.len() * LANES) as u64));
+    let mut case = |name: &str, f: &dyn Fn(&[[Lanes; 3]; 4])| {
+        group.bench_function(name, |b| b.iter(|| batches.iter().for_each(|x| f(black_box(x)))));
+    };
+    case("frame", &|x| { black_box(Frames::new(x)); });
+    case("frame + primal", &|x| { black_box(Frames::new(x).primal()); });
+    case("frame + dual", &|x| { black_box(Frames::new(x).dual()); });
+    case("frame + volume", &|x| { black_box(Frames::new(x).volume()); });
     group.finish();
 }
 

@@ -4,12 +4,12 @@
 use crate::assembly::scatter::{finite_rows, laplacian_values, mass_values};
 use crate::sparse::{Csr, Mass};
 use crate::assembly::pass::{boundary_mask, Elements};
-use crate::element::{Element, Fault};
+use crate::element::Request;
 use crate::error::{Error, Result};
 use crate::assembly::order::Layout;
 use crate::mesh::MeshView;
 use crate::options::{LaplacianKind, MassKind, Options};
-use crate::assembly::pass::{chunked, per_element, per_element_subset, CHUNK};
+use crate::assembly::pass::{values, values_of, FirstFault};
 use crate::element::{Simplex, Tet};
 use crate::assembly::pattern::Topology;
 use rayon::prelude::*;
@@ -61,6 +61,8 @@ pub struct Update {
 pub struct CachedMesh<S: Simplex = Tet> {
     /// The mesh in internal order (coordinates kept up to date by updates).
     layout: Layout<S>,
+    /// The coordinates in the user's order (kept up to date too: updates compare with them).
+    user_points: Vec<f64>,
     /// Internal elements with the barycentric boundary fix.
     boundary: Option<Vec<bool>>,
     opts: Options,
@@ -89,26 +91,21 @@ impl<S: Simplex> CachedMesh<S> {
             None => mesh,
         };
         let (layout, topology, boundary) = super::install::<S, _>(&opts, || {
-            let layout = Layout::new(&mesh, &opts)?;
+            let (layout, corners) = Layout::with_corners(&mesh, &opts)?;
             let (topology, boundary) = rayon::join(
-                || Topology::new::<S>(&layout, &cells, &opts),
+                || Topology::new::<S>(&layout, corners, &opts),
                 || boundary_mask(&layout.mesh(), &opts),
             );
             Ok((layout, topology?, boundary?))
         })?;
         opts.cancelled()?;
         let (laplacians, masses) = (vec![], vec![]);
-        Ok(CachedMesh { layout, boundary, opts, topology, laplacians, masses })
+        Ok(CachedMesh { layout, user_points: points, boundary, opts, topology, laplacians, masses })
     }
 
     /// The current coordinates in the user's order, row-major `(n, dim)` (a copy).
     pub fn points(&self) -> Vec<f64> {
-        let (dim, internal) = (self.layout.dim, &self.layout.points);
-        let mut out = vec![0.0; internal.len()];
-        for (p, &u) in internal.chunks_exact(dim).zip(&self.layout.vertex_of) {
-            out[u as usize * dim..][..dim].copy_from_slice(p);
-        }
-        out
+        self.user_points.clone()
     }
 
     /// The elements in the user's order and numbering (a copy).
@@ -171,7 +168,7 @@ impl<S: Simplex> CachedMesh<S> {
         let (elements, topo, opts) = (self.elements(), &self.topology, &self.opts);
         let cached = super::install::<S, _>(opts, || {
             let mut w = vec![S::EdgeValues::default(); self.layout.cells.len()];
-            per_element(&elements, opts, &mut w, |el| el.laplacian(kind))?;
+            values(&elements, opts, Request { laplacian: Some(kind), mass: None }, Some(&mut w), None)?;
             let values = laplacian_values::<S>(topo, &w, None, vec![0.0; topo.nnz()], opts)?;
             finite_rows(topo.indptr(), &values)?;
             Ok(Cached { kind, per_element: w, values })
@@ -200,7 +197,7 @@ impl<S: Simplex> CachedMesh<S> {
         let (elements, topo, opts) = (self.elements(), &self.topology, &self.opts);
         let cached = super::install::<S, _>(opts, || {
             let mut m = vec![S::CornerValues::default(); self.layout.cells.len()];
-            per_element(&elements, opts, &mut m, |el| el.corner_mass(kind))?;
+            values(&elements, opts, Request { laplacian: None, mass: Some(kind) }, None, Some(&mut m))?;
             let values = mass_values::<S>(topo, kind, &m, None, vec![], opts)?;
             match kind {
                 MassKind::Fem => finite_rows(topo.indptr(), &values)?,
@@ -233,7 +230,7 @@ impl<S: Simplex> CachedMesh<S> {
     /// The (user) vertices whose coordinates differ in `points` (same shape as the mesh's),
     /// ascending.
     pub fn moved_vertices(&self, points: &[f64]) -> Result<Vec<u32>> {
-        let (dim, current) = (self.layout.dim, &self.layout.points);
+        let (dim, current) = (self.layout.dim, &self.user_points);
         if points.len() != current.len() {
             return Err(Error::Shape {
                 what: format!(
@@ -244,12 +241,22 @@ impl<S: Simplex> CachedMesh<S> {
                 ),
             });
         }
-        let rank = &self.layout.rank;
+        // blocks of vertices compared at once, then vertex by vertex where they differ
+        const BLOCK: usize = 4096;
+        let current = &self.user_points;
         super::install::<S, _>(&self.opts, || {
-            Ok((0..current.len() / dim)
-                .into_par_iter()
-                .filter(|&u| points[u * dim..][..dim] != current[rank[u] as usize * dim..][..dim])
-                .map(|u| u as u32)
+            Ok(points
+                .par_chunks(BLOCK * dim)
+                .zip(current.par_chunks(BLOCK * dim))
+                .enumerate()
+                .flat_map_iter(|(b, (new, old))| {
+                    let mut moved = Vec::new();
+                    if new != old {
+                        let pairs = new.chunks_exact(dim).zip(old.chunks_exact(dim));
+                        moved.extend(pairs.enumerate().filter(|(_, (p, q))| p != q).map(|(k, _)| (b * BLOCK + k) as u32));
+                    }
+                    moved
+                })
                 .collect())
         })
     }
@@ -285,10 +292,17 @@ impl<S: Simplex> CachedMesh<S> {
                 points[span(v)].copy_from_slice(c);
             }
         };
+        let write_user = |points: &mut [f64], values: &[f64]| {
+            for (&u, c) in moved.iter().zip(values.chunks_exact(dim)) {
+                points[span(u)].copy_from_slice(c);
+            }
+        };
         write(&mut self.layout.points, coords);
+        write_user(&mut self.user_points, coords);
         let result = self.refresh(&internal);
         if result.is_err() {
             write(&mut self.layout.points, &old);
+            write_user(&mut self.user_points, &old);
         }
         result
     }
@@ -315,14 +329,8 @@ impl<S: Simplex> CachedMesh<S> {
         }
         let new = self.elements();
         let opts = &self.opts;
-        let (laplacians, masses) = super::install::<S, _>(opts, || {
-            if full {
-                return self.recompute_all(&new);
-            }
-            let l = recompute(&new, opts, &listed, &self.laplacians, |el, kind| el.laplacian(kind))?;
-            let m = recompute(&new, opts, &listed, &self.masses, |el, kind| el.corner_mass(kind))?;
-            Ok((l, m))
-        })?;
+        let (laplacians, masses) =
+            super::install::<S, _>(opts, || self.recompute(&new, (!full).then_some(&listed[..])))?;
         // Nothing failed: commit, keeping what is overwritten so that a sum that overflows
         // can be undone. (The sums run without the cancel flag: a commit is not cut short.)
         let (topo, all) = (&self.topology, (!full).then_some(&rows[..]));
@@ -376,38 +384,27 @@ impl<S: Simplex> CachedMesh<S> {
         })
     }
 
-    /// Per-element values of every cached operator for all elements, in one pass (each
-    /// element's frame and dual are computed once for all of them).
+    /// Per-element values of every cached operator for the `listed` elements (all of them
+    /// when `None`), each element evaluated once per pair of a cached Laplacian and a cached
+    /// mass (their shared dual computed once).
     #[allow(clippy::type_complexity)]
-    fn recompute_all(
+    fn recompute(
         &self,
         elements: &Elements<S>,
+        listed: Option<&[u32]>,
     ) -> Result<(Vec<Vec<S::EdgeValues>>, Vec<Vec<S::CornerValues>>)> {
-        let m = self.layout.cells.len();
-        let mut l_new: Vec<Vec<S::EdgeValues>> = self.laplacians.iter().map(|_| vec![Default::default(); m]).collect();
-        let mut m_new: Vec<Vec<S::CornerValues>> = self.masses.iter().map(|_| vec![Default::default(); m]).collect();
-        let l_kinds: Vec<_> = self.laplacians.iter().map(|c| c.kind).collect();
-        let m_kinds: Vec<_> = self.masses.iter().map(|c| c.kind).collect();
-        let n_chunks = m.div_ceil(CHUNK);
-        let chunks = chunk_lists(&mut l_new, n_chunks).into_par_iter().zip(chunk_lists(&mut m_new, n_chunks));
-        let fault = chunked(elements, &self.opts, chunks, |c, (mut ls, mut ms), scratch, faults| {
-            for k in 0..CHUNK.min(m - c * CHUNK) {
-                let t = c * CHUNK + k;
-                let el = elements.get(t, scratch);
-                // a faulty element keeps the zeros of the fresh buffer (the Skip policy)
-                let mut fault = None;
-                for (out, &kind) in ls.iter_mut().zip(&l_kinds) {
-                    el.laplacian(kind).map(|v| out[k] = v).unwrap_or_else(|f| fault = fault.or(Some(f)));
-                }
-                for (out, &kind) in ms.iter_mut().zip(&m_kinds) {
-                    el.corner_mass(kind).map(|v| out[k] = v).unwrap_or_else(|f| fault = fault.or(Some(f)));
-                }
-                if let Some(fault) = fault {
-                    faults.record(elements, t, fault);
-                }
-            }
-        })?;
-        fault.into_result(self.opts.degenerate)?;
+        let count = listed.map_or(self.layout.cells.len(), <[u32]>::len);
+        let mut l_new: Vec<Vec<S::EdgeValues>> = self.laplacians.iter().map(|_| vec![Default::default(); count]).collect();
+        let mut m_new: Vec<Vec<S::CornerValues>> = self.masses.iter().map(|_| vec![Default::default(); count]).collect();
+        let mut first = FirstFault::default();
+        let (mut ls, mut ms) = (l_new.iter_mut(), m_new.iter_mut());
+        for i in 0..self.laplacians.len().max(self.masses.len()) {
+            let (l, m) = (self.laplacians.get(i), self.masses.get(i));
+            let request = Request { laplacian: l.map(|c| c.kind), mass: m.map(|c| c.kind) };
+            let (w, m) = (l.and(ls.next()).map(|v| &mut v[..]), m.and(ms.next()).map(|v| &mut v[..]));
+            first.merge(values_of(elements, &self.opts, listed, request, w, m)?);
+        }
+        first.into_result(self.opts.degenerate)?;
         Ok((l_new, m_new))
     }
 }
@@ -473,27 +470,7 @@ fn finite_vertices(values: &[f64]) -> Result<()> {
     }
 }
 
-/// New per-element values of every cached operator for the listed elements.
-fn recompute<S: Simplex, K: Copy + Sync, T: Default + Send + Sync>(
-    elements: &Elements<S>,
-    opts: &Options,
-    listed: &[u32],
-    cached: &[Cached<K, T>],
-    f: impl Fn(&Element<S>, K) -> std::result::Result<T, Fault> + Sync,
-) -> Result<Vec<Vec<T>>> {
-    cached.iter().map(|c| per_element_subset(elements, opts, listed, |el| f(el, c.kind))).collect()
-}
 
-/// The [`CHUNK`]-element chunks of every cache, gathered per chunk.
-fn chunk_lists<T>(caches: &mut [Vec<T>], n_chunks: usize) -> Vec<Vec<&mut [T]>> {
-    let mut chunks: Vec<Vec<&mut [T]>> = (0..n_chunks).map(|_| Vec::new()).collect();
-    for v in caches.iter_mut() {
-        for (c, part) in v.chunks_mut(CHUNK).enumerate() {
-            chunks[c].push(part);
-        }
-    }
-    chunks
-}
 
 /// Stores new per-element values: all of them (`listed = None`) or those of the listed
 /// elements.

@@ -8,34 +8,24 @@ use crate::error::Result;
 use crate::assembly::order::Layout;
 use crate::mesh::MeshView;
 use crate::options::{LaplacianKind, MassKind, Options};
-use crate::assembly::pass::{per_element, per_element_pair};
+use crate::assembly::pass::values;
+use crate::element::Request;
 use crate::element::Simplex;
-use crate::assembly::pattern::Rows;
+use crate::assembly::pattern::row_starts;
 use rayon::prelude::*;
 use std::borrow::Cow;
 
-/// Per-element values of a one-shot pass: edge weights and/or corner masses.
-type Values<S> = (Option<Vec<<S as Simplex>::EdgeValues>>, Option<Vec<<S as Simplex>::CornerValues>>);
-
-/// One-shot assembly: the internal order of `mesh`, then the per-element pass (`pass`,
-/// over the internal elements) and the row layout side by side, then the scatter of the
-/// Laplacian (from the weights) and of the mass of `mass_kind` (from the corner masses).
-fn one_shot<S: Simplex>(
-    mesh: &MeshView<S>,
-    opts: &Options,
-    mass_kind: Option<MassKind>,
-    pass: impl FnOnce(&Elements<S>) -> Result<Values<S>> + Send,
-) -> Result<(Option<Csr>, Option<Mass>)> {
-    let layout = Layout::new(mesh, opts)?;
+/// One-shot assembly of `request`: the internal order of `mesh`, the corner incidence and
+/// the pattern, then the values of the elements and the rows, stripe by stripe
+/// ([`assemble`]).
+fn one_shot<S: Simplex>(mesh: &MeshView<S>, opts: &Options, request: Request) -> Result<(Option<Csr>, Option<Mass>)> {
+    let (mut layout, corners) = Layout::with_corners(mesh, opts)?;
+    layout.internal_of = Vec::new(); // not needed any more
+    let indptr = row_starts::<S>(&layout.cells, &corners, &layout.vertex_of, opts)?;
     let internal = layout.mesh();
     let boundary = boundary_mask(&internal, opts)?.map(Cow::Owned);
     let elements = Elements::internal(internal, &layout.element_of, boundary);
-    let (values, rows) =
-        rayon::join(|| pass(&elements), || Rows::<S>::new(&layout, mesh.cells(), opts));
-    let ((w, m), rows) = (values?, rows?);
-    opts.cancelled()?;
-    let mass = mass_kind.zip(m.as_deref());
-    assemble(&layout, rows, w.as_deref(), mass, opts)
+    assemble(&layout, &elements, &corners, indptr, request, opts)
 }
 
 /// The `n x n` Laplacian: `L[i,j] = w_ij` on edges, `L[i,i] = -sum_j w_ij`; rows sum to
@@ -52,12 +42,7 @@ fn one_shot<S: Simplex>(
 pub fn laplacian<S: Simplex>(mesh: &MeshView<S>, kind: LaplacianKind, opts: &Options) -> Result<Csr> {
     let kind = kind.check()?;
     super::install::<S, _>(opts, || {
-        let pass = |elements: &Elements<S>| {
-            let mut w = vec![S::EdgeValues::default(); mesh.n_elements()];
-            per_element(elements, opts, &mut w, |el| el.laplacian(kind))?;
-            Ok((Some(w), None))
-        };
-        let (l, _) = one_shot(mesh, opts, None, pass)?;
+        let (l, _) = one_shot(mesh, opts, Request { laplacian: Some(kind), mass: None })?;
         Ok(l.expect("a Laplacian was asked for"))
     })
 }
@@ -74,12 +59,7 @@ pub fn laplacian<S: Simplex>(mesh: &MeshView<S>, kind: LaplacianKind, opts: &Opt
 /// ```
 pub fn mass<S: Simplex>(mesh: &MeshView<S>, kind: MassKind, opts: &Options) -> Result<Mass> {
     super::install::<S, _>(opts, || {
-        let pass = |elements: &Elements<S>| {
-            let mut m = vec![S::CornerValues::default(); mesh.n_elements()];
-            per_element(elements, opts, &mut m, |el| el.corner_mass(kind))?;
-            Ok((None, Some(m)))
-        };
-        let (_, m) = one_shot(mesh, opts, Some(kind), pass)?;
+        let (_, m) = one_shot(mesh, opts, Request { laplacian: None, mass: Some(kind) })?;
         Ok(m.expect("a mass was asked for"))
     })
 }
@@ -105,14 +85,7 @@ pub fn operators<S: Simplex>(
 ) -> Result<(Csr, Mass)> {
     let lap = lap.check()?;
     super::install::<S, _>(opts, || {
-        let pass = |elements: &Elements<S>| {
-            let m_elements = mesh.n_elements();
-            let mut w = vec![S::EdgeValues::default(); m_elements];
-            let mut m = vec![S::CornerValues::default(); m_elements];
-            per_element_pair(elements, opts, &mut w, &mut m, |el| (el.laplacian(lap), el.corner_mass(mass)))?;
-            Ok((Some(w), Some(m)))
-        };
-        let (l, m) = one_shot(mesh, opts, Some(mass), pass)?;
+        let (l, m) = one_shot(mesh, opts, Request { laplacian: Some(lap), mass: Some(mass) })?;
         Ok((l.expect("a Laplacian was asked for"), m.expect("a mass was asked for")))
     })
 }
@@ -127,7 +100,8 @@ pub fn contributions<S: Simplex>(
     let kind = kind.check()?;
     super::install::<S, _>(opts, || {
         let mut w = vec![S::EdgeValues::default(); mesh.n_elements()];
-        per_element(&Elements::new(*mesh, opts)?, opts, &mut w, |el| el.laplacian(kind)).map(|_| w)
+        let request = Request { laplacian: Some(kind), mass: None };
+        values(&Elements::new(*mesh, opts)?, opts, request, Some(&mut w), None).map(|_| w)
     })
 }
 

@@ -21,7 +21,7 @@ use crate::error::Result;
 use crate::mesh::MeshView;
 use crate::options::Options;
 use crate::element::Simplex;
-use crate::topology::group::group_by;
+use crate::topology::group::{group_u32, Incidence};
 use rayon::prelude::*;
 
 /// Bits per axis of the Morton code.
@@ -99,6 +99,19 @@ fn morton_codes(points: &[f64], dim: usize) -> Vec<u64> {
 impl<S: Simplex> Layout<S> {
     /// The internal order of a validated mesh. Polls the cancel flag.
     pub fn new(mesh: &MeshView<S>, opts: &Options) -> Result<Self> {
+        Ok(Self::ordered(mesh, opts, false)?.0)
+    }
+
+    /// [`Layout::new`] with the element-corners `K t + c` (internal `t`) around every
+    /// internal vertex, in ascending user element index (as
+    /// [`crate::assembly::pattern::corner_incidence`] makes them): both from the mesh's
+    /// cells renumbered once.
+    pub fn with_corners(mesh: &MeshView<S>, opts: &Options) -> Result<(Self, Incidence)> {
+        let (layout, corners) = Self::ordered(mesh, opts, true)?;
+        Ok((layout, corners.expect("asked for")))
+    }
+
+    fn ordered(mesh: &MeshView<S>, opts: &Options, with_corners: bool) -> Result<(Self, Option<Incidence>)> {
         let (points, dim, n) = (mesh.points(), mesh.dim(), mesh.n_vertices());
         let mut keyed: Vec<(u64, u32)> = morton_codes(points, dim).into_iter().zip(0..n as u32).collect();
         keyed.par_sort_unstable();
@@ -108,25 +121,42 @@ impl<S: Simplex> Layout<S> {
         for (r, &v) in vertex_of.iter().enumerate() {
             rank[v as usize] = r as u32;
         }
-        let element_of = element_order::<S>(mesh.cells(), &rank, n, opts)?;
-        let mut internal_of = vec![0u32; element_of.len()];
-        for (t, &u) in element_of.iter().enumerate() {
-            internal_of[u as usize] = t as u32;
-        }
-        let cells = element_of
+        // the cells in internal numbering, in the user's order (a temporary)
+        let ranked: Vec<S::Cell> = mesh
+            .cells()
             .par_iter()
-            .map(|&t| {
-                let mut cell = mesh.cells()[t as usize];
+            .map(|cell| {
+                let mut cell = *cell;
                 for v in cell.as_mut() {
                     *v = rank[*v as usize];
                 }
                 cell
             })
             .collect();
+        opts.cancelled()?;
+        // elements grouped by their smallest internal vertex (a stable counting sort)
+        let first = |t: usize| (*ranked[t].as_ref().iter().min().expect("a cell has corners"), t as u32);
+        let element_of = group_u32(n, ranked.len(), first, opts)?.1;
+        let mut internal_of = vec![0u32; element_of.len()];
+        for (t, &u) in element_of.iter().enumerate() {
+            internal_of[u as usize] = t as u32;
+        }
+        let corners = with_corners
+            .then(|| {
+                let k = S::CORNERS;
+                let corner = |r: usize| {
+                    let (e, c) = (r / k, r % k);
+                    (ranked[e].as_ref()[c], k as u32 * internal_of[e] + c as u32)
+                };
+                group_u32(n, k * ranked.len(), corner, opts).map(|(offsets, items)| Incidence { offsets, items })
+            })
+            .transpose()?;
+        let cells = element_of.par_iter().map(|&t| ranked[t as usize]).collect();
+        drop(ranked);
         let internal_points = vertex_of.par_iter().flat_map_iter(|&v| &points[v as usize * dim..][..dim]).copied().collect();
         let weights = mesh.vertex_weights().map(|w| vertex_of.par_iter().map(|&v| w[v as usize]).collect());
         opts.cancelled()?;
-        Ok(Layout { vertex_of, rank, element_of, internal_of, cells, points: internal_points, weights, dim })
+        Ok((Layout { vertex_of, rank, element_of, internal_of, cells, points: internal_points, weights, dim }, corners))
     }
 
     /// The internal mesh (trusted: it was validated in the user's order).
@@ -149,15 +179,6 @@ impl<S: Simplex> Layout<S> {
     }
 }
 
-/// The internal element order: a stable counting sort by the smallest internal rank of an
-/// element's vertices.
-fn element_order<S: Simplex>(cells: &[S::Cell], rank: &[u32], n: usize, opts: &Options) -> Result<Vec<u32>> {
-    let first = |t: usize| {
-        let min = cells[t].as_ref().iter().map(|&v| rank[v as usize]).min().expect("a cell has corners");
-        (min, t as u32)
-    };
-    Ok(group_by(n, cells.len(), first, opts)?.1)
-}
 
 #[cfg(test)]
 mod tests {

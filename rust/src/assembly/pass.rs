@@ -2,7 +2,8 @@
 //! does not depend on the scheduling), faults are collected as the faulty element with the
 //! lowest user index, and the cancel flag is polled between chunks.
 
-use crate::element::{Element, Fault, Simplex};
+use crate::element::tet::batch::LANES;
+use crate::element::{Element, Fault, Request, Simplex};
 use crate::error::{Error, Result};
 use crate::mesh::MeshView;
 use crate::options::{Boundary, Degenerate, Options};
@@ -65,6 +66,157 @@ impl<'a, S: Simplex> Elements<'a, S> {
     }
 }
 
+impl<S: Simplex> Elements<'_, S> {
+    /// Evaluates `request` on `count` elements, the `k`-th being element `t_of(k)`: its
+    /// values into `w[k]` and `m[k]` (the slices the request asks for; the default for an
+    /// element that fails), its fault into `faults`. Groups of [`LANES`] elements go through
+    /// the vectorised kernels ([`Simplex::at_once`]), those they leave through the batched
+    /// precise path ([`Simplex::precise_at_once`]), the rest through [`Element`]: the same
+    /// values, bit for bit, by any route.
+    #[allow(clippy::too_many_arguments)]
+    pub fn evaluate(
+        &self,
+        count: usize,
+        t_of: impl Fn(usize) -> usize,
+        request: Request,
+        mut w: Option<&mut [S::EdgeValues]>,
+        mut m: Option<&mut [S::CornerValues]>,
+        scratch: &mut [f64],
+        faults: &mut FirstFault,
+    ) {
+        let (points, dim, cells) = (self.mesh.points(), self.mesh.dim(), self.mesh.cells());
+        let batched = self.mesh.vertex_weights().is_none();
+        let fixed = |t: usize| self.boundary.as_ref().is_some_and(|b| b[t]);
+        // the elements no batch computed: (k, t)
+        let mut left: Vec<(usize, usize)> = Vec::new();
+        let mut store = |k: usize, wl: &S::EdgeValues, ml: &S::CornerValues| {
+            if let Some(w) = w.as_deref_mut() {
+                w[k] = *wl;
+            }
+            if let Some(m) = m.as_deref_mut() {
+                m[k] = *ml;
+            }
+        };
+        let mut group = |items: &[(usize, usize)], left: &mut Vec<(usize, usize)>, precise: bool| {
+            let cells: [S::Cell; LANES] = std::array::from_fn(|i| cells[items[i.min(items.len() - 1)].1]);
+            let mut wl = [S::EdgeValues::default(); LANES];
+            let mut ml = [S::CornerValues::default(); LANES];
+            let cells = &cells[..items.len()];
+            let done = match precise {
+                false => S::at_once(points, dim, cells, request, &mut wl, &mut ml),
+                true => S::precise_at_once(points, dim, cells, request, &mut wl, &mut ml),
+            };
+            for (i, &(k, t)) in items.iter().enumerate() {
+                if done[i] && !fixed(t) {
+                    store(k, &wl[i], &ml[i]);
+                } else {
+                    left.push((k, t));
+                }
+            }
+        };
+        if batched {
+            let mut first = Vec::new();
+            for start in (0..count).step_by(LANES) {
+                let len = LANES.min(count - start);
+                let items: [(usize, usize); LANES] = std::array::from_fn(|i| (start + i, t_of(start + i.min(len - 1))));
+                group(&items[..len], &mut first, false);
+            }
+            for items in first.chunks(LANES) {
+                group(items, &mut left, true);
+            }
+        } else {
+            left = (0..count).map(|k| (k, t_of(k))).collect();
+        }
+        for (k, t) in left {
+            let el = self.get(t, scratch);
+            let lap = request.laplacian.map(|kind| el.laplacian(kind));
+            let mass = request.mass.map(|kind| el.corner_mass(kind));
+            let fault = lap.and_then(|r| r.err()).or(mass.and_then(|r| r.err()));
+            if let Some(fault) = fault {
+                faults.record(self, t, fault);
+            }
+            let wl = lap.map(|r| r.unwrap_or_default()).unwrap_or_default();
+            let ml = mass.map(|r| r.unwrap_or_default()).unwrap_or_default();
+            store(k, &wl, &ml);
+        }
+    }
+}
+
+/// `values` split into `n` chunks of [`CHUNK`] (none when absent).
+fn chunks_of<T>(values: Option<&mut [T]>, n: usize) -> Vec<Option<&mut [T]>> {
+    match values {
+        Some(v) => v.chunks_mut(CHUNK).map(Some).collect(),
+        None => (0..n).map(|_| None).collect(),
+    }
+}
+
+/// `request` on every element, in parallel chunks: values into `w` and `m` (one slot per
+/// element, the default for a faulty one); the first fault under the policy.
+pub(crate) fn values<S: Simplex>(
+    elements: &Elements<S>,
+    opts: &Options,
+    request: Request,
+    w: Option<&mut [S::EdgeValues]>,
+    m: Option<&mut [S::CornerValues]>,
+) -> Result<()> {
+    values_of(elements, opts, None, request, w, m)?.into_result(opts.degenerate)
+}
+
+/// `request` on the `listed` elements (all of them when `None`), in parallel chunks:
+/// values into `w` and `m` (one slot per listed element, the default for a faulty one);
+/// the first faulty element.
+pub(crate) fn values_of<S: Simplex>(
+    elements: &Elements<S>,
+    opts: &Options,
+    listed: Option<&[u32]>,
+    request: Request,
+    w: Option<&mut [S::EdgeValues]>,
+    m: Option<&mut [S::CornerValues]>,
+) -> Result<FirstFault> {
+    let count = listed.map_or(elements.mesh.n_elements(), <[u32]>::len);
+    let t_of = |k: usize| listed.map_or(k, |l| l[k] as usize);
+    values_by(elements, opts, count, t_of, request, w, m)
+}
+
+/// `request` on `count` elements, the `k`-th being element `t_of(k)`, in parallel chunks:
+/// values into `w` and `m` (one slot per element listed, the default for a faulty one);
+/// the first faulty element.
+pub(crate) fn values_by<S: Simplex>(
+    elements: &Elements<S>,
+    opts: &Options,
+    count: usize,
+    t_of: impl Fn(usize) -> usize + Sync,
+    request: Request,
+    w: Option<&mut [S::EdgeValues]>,
+    m: Option<&mut [S::CornerValues]>,
+) -> Result<FirstFault> {
+    let n = count.div_ceil(CHUNK);
+    let chunks = chunks_of(w, n).into_par_iter().zip(chunks_of(m, n));
+    chunked(elements, opts, chunks, |c, (w, m), scratch, faults| {
+        let len = CHUNK.min(count - c * CHUNK);
+        elements.evaluate(len, |k| t_of(c * CHUNK + k), request, w, m, scratch, faults);
+    })
+}
+
+/// Scratch handed to parallel tasks and taken back: a pass allocates one per task running
+/// at once (about one per worker), not one per task.
+pub(crate) struct Pool<T>(Mutex<Vec<T>>);
+
+impl<T> Pool<T> {
+    pub fn new() -> Self {
+        Pool(Mutex::new(Vec::new()))
+    }
+
+    /// `f` of a scratch from the pool, or of `make()` when none is free.
+    pub fn with<R>(&self, make: impl FnOnce() -> T, f: impl FnOnce(&mut T) -> R) -> R {
+        let taken = self.0.lock().unwrap_or_else(|e| e.into_inner()).pop();
+        let mut scratch = taken.unwrap_or_else(make);
+        let result = f(&mut scratch);
+        self.0.lock().unwrap_or_else(|e| e.into_inner()).push(scratch);
+        result
+    }
+}
+
 /// Elements per work item (and per poll of the cancel flag).
 pub(crate) const CHUNK: usize = 2048;
 
@@ -92,7 +244,7 @@ impl FirstFault {
         self.merge(FirstFault { any: Some((user, fault)), overflow: overflow.map(|(u, _)| u) });
     }
 
-    fn merge(&mut self, other: FirstFault) {
+    pub fn merge(&mut self, other: FirstFault) {
         self.any = lowest(self.any, other.any);
         self.overflow = lowest(self.overflow.map(|u| (u, ())), other.overflow.map(|u| (u, ()))).map(|(u, _)| u);
     }
@@ -136,68 +288,4 @@ pub(crate) fn chunked<S: Simplex, C: Send>(
         },
     )?;
     Ok(first.into_inner().unwrap_or_else(|e| e.into_inner()))
-}
-
-/// `f` of every element into `out` (one slot per element; the default for a faulty one).
-pub(crate) fn per_element<S: Simplex, T: Default + Send>(
-    elements: &Elements<S>,
-    opts: &Options,
-    out: &mut [T],
-    f: impl Fn(&Element<S>) -> std::result::Result<T, Fault> + Sync,
-) -> Result<()> {
-    let fault = chunked(elements, opts, out.par_chunks_mut(CHUNK), |c, slots, scratch, faults| {
-        for (k, slot) in slots.iter_mut().enumerate() {
-            let t = c * CHUNK + k;
-            *slot = f(&elements.get(t, scratch)).unwrap_or_else(|fault| {
-                faults.record(elements, t, fault);
-                T::default()
-            });
-        }
-    })?;
-    fault.into_result(opts.degenerate)
-}
-
-/// `f` of every element into two outputs (weights and corner masses in one pass); each
-/// output gets the default for an element that fails for it.
-pub(crate) fn per_element_pair<S: Simplex, A: Default + Send, B: Default + Send>(
-    elements: &Elements<S>,
-    opts: &Options,
-    a: &mut [A],
-    b: &mut [B],
-    f: impl Fn(&Element<S>) -> (std::result::Result<A, Fault>, std::result::Result<B, Fault>) + Sync,
-) -> Result<()> {
-    let chunks = a.par_chunks_mut(CHUNK).zip(b.par_chunks_mut(CHUNK));
-    let fault = chunked(elements, opts, chunks, |c, (a, b), scratch, faults| {
-        for (k, (x, y)) in a.iter_mut().zip(b.iter_mut()).enumerate() {
-            let t = c * CHUNK + k;
-            let (u, v) = f(&elements.get(t, scratch));
-            if let Some(fault) = u.as_ref().err().or(v.as_ref().err()) {
-                faults.record(elements, t, *fault);
-            }
-            (*x, *y) = (u.unwrap_or_default(), v.unwrap_or_default());
-        }
-    })?;
-    fault.into_result(opts.degenerate)
-}
-
-/// `f` of the listed elements only: their values, in the order of `listed`.
-pub(crate) fn per_element_subset<S: Simplex, T: Default + Send>(
-    elements: &Elements<S>,
-    opts: &Options,
-    listed: &[u32],
-    f: impl Fn(&Element<S>) -> std::result::Result<T, Fault> + Sync,
-) -> Result<Vec<T>> {
-    let results: Vec<_> = listed
-        .par_iter()
-        .map_init(|| vec![0.0; elements.scratch_len()], |scratch, &t| f(&elements.get(t as usize, scratch)))
-        .collect();
-    opts.cancelled()?;
-    let mut fault = FirstFault::default();
-    for (&t, r) in listed.iter().zip(&results) {
-        if let Err(f) = r {
-            fault.record(elements, t as usize, *f);
-        }
-    }
-    fault.into_result(opts.degenerate)?;
-    Ok(results.into_iter().map(|r| r.unwrap_or_default()).collect())
 }

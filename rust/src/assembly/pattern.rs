@@ -1,17 +1,23 @@
-//! The symbolic step: the CSR pattern "mesh edges + diagonal" and, for every element
-//! around a vertex, where its contributions land in that vertex's row. It depends on the
-//! elements only, so it is computed once and reused for every operator and every new
-//! geometry.
+//! The symbolic step: the CSR pattern "mesh edges + diagonal", row by row.
 //!
-//! Rows are built in the internal order of [`crate::assembly::order`] (the elements around a vertex
-//! are close in memory) and written to their place in the user's numbering: the columns
-//! of a row are sorted by the user's vertex index, as the output needs them.
+//! Row `i` of every operator is the vertex `i` and its neighbours, its columns sorted by
+//! the user's vertex index. A row is built from the element-corners around its vertex (the
+//! corner incidence, [`corner_incidence`]): the other corners of those elements, each
+//! kept once (a stamp per vertex, no reset), then sorted. Rows are built in the internal
+//! order of [`crate::assembly::order`] (the elements around a vertex are close in memory)
+//! and written to their place in the user's numbering.
+//!
+//! * [`row_starts`]: the rows' lengths alone, for a one-shot assembly (which then builds
+//!   and fills its rows in place, [`crate::assembly::scatter`]);
+//! * [`Topology`]: the pattern with its slot map, kept by [`crate::CachedMesh`];
+//! * [`Rows`]: rows on demand, for the checks of [`crate::analysis`].
 
-use crate::error::Result;
-use crate::topology::group::{group_by, groups_mut, Incidence};
 use crate::assembly::order::Layout;
-use crate::options::Options;
+use crate::assembly::pass::Pool;
 use crate::element::Simplex;
+use crate::error::Result;
+use crate::options::Options;
+use crate::topology::group::{group_u32, groups_mut, Incidence};
 use rayon::prelude::*;
 
 /// Rows per work item of the row passes (and per poll of the cancel flag).
@@ -43,6 +49,125 @@ pub(crate) fn for_each_row<T: Send>(
     })
 }
 
+/// Scratch of one worker building rows: a stamp per internal vertex (the number of the
+/// last row built that met it), the number of rows built, and the keys of the current row.
+pub(crate) struct RowScratch {
+    seen: Vec<u32>,
+    built: u32,
+    keys: Vec<u64>,
+}
+
+impl RowScratch {
+    /// Scratch for `n` vertices.
+    pub fn new(n: usize) -> Self {
+        RowScratch { seen: vec![0; n], built: 0, keys: Vec::with_capacity(64) }
+    }
+
+    /// The next stamp (wrapping: after 2^32 rows the stamps start again).
+    #[inline]
+    fn stamp(&mut self) -> u32 {
+        self.built = self.built.wrapping_add(1);
+        if self.built == 0 {
+            self.seen.fill(0);
+            self.built = 1;
+        }
+        self.built
+    }
+
+    /// The number of columns of internal row `v` (see [`RowScratch::columns`]).
+    #[inline]
+    pub fn count<S: Simplex>(&mut self, v: usize, items: &[u32], cells: &[S::Cell]) -> u32 {
+        let k = S::CORNERS;
+        let stamp = self.stamp();
+        self.seen[v] = stamp;
+        let mut count = 1;
+        for &item in items {
+            let (cell, c) = (cells[item as usize / k].as_ref(), item as usize % k);
+            for (o, &u) in cell.iter().enumerate() {
+                if o != c && self.seen[u as usize] != stamp {
+                    self.seen[u as usize] = stamp;
+                    count += 1;
+                }
+            }
+        }
+        count
+    }
+
+    /// The columns of internal row `v` (the element-corners `items` around it, of `cells`
+    /// in internal numbering): `v` and its neighbours, each once, sorted by user index
+    /// (`vertex_of`), as keys `user << 32 | internal`.
+    #[inline]
+    pub fn columns<S: Simplex>(&mut self, v: usize, items: &[u32], cells: &[S::Cell], vertex_of: &[u32]) -> &[u64] {
+        let k = S::CORNERS;
+        let stamp = self.stamp();
+        let key = |u: u32| (vertex_of[u as usize] as u64) << 32 | u as u64;
+        self.keys.clear();
+        self.seen[v] = stamp;
+        self.keys.push(key(v as u32));
+        for &item in items {
+            let (cell, c) = (cells[item as usize / k].as_ref(), item as usize % k);
+            for (o, &u) in cell.iter().enumerate() {
+                if o != c && self.seen[u as usize] != stamp {
+                    self.seen[u as usize] = stamp;
+                    self.keys.push(key(u));
+                }
+            }
+        }
+        sort_small(&mut self.keys);
+        &self.keys
+    }
+}
+
+/// Sorts a short slice (a row: about 15 entries) by insertion, a longer one by the library.
+#[inline]
+fn sort_small(keys: &mut [u64]) {
+    if keys.len() > 32 {
+        keys.sort_unstable();
+        return;
+    }
+    for i in 1..keys.len() {
+        let x = keys[i];
+        let mut j = i;
+        while j > 0 && keys[j - 1] > x {
+            keys[j] = keys[j - 1];
+            j -= 1;
+        }
+        keys[j] = x;
+    }
+}
+
+/// The row starts in the user's order (length `n + 1`) of the pattern of the mesh `cells`
+/// (internal numbering) with corner incidence `corners`: one pass that counts the distinct
+/// columns of every row (no columns stored).
+pub(crate) fn row_starts<S: Simplex>(cells: &[S::Cell], corners: &Incidence, vertex_of: &[u32], opts: &Options) -> Result<Vec<usize>> {
+    let n = vertex_of.len();
+    let pool = Pool::new();
+    let mut length = vec![0u32; n];
+    length.par_chunks_mut(ROW_CHUNK).enumerate().try_for_each(|(c, lengths)| {
+        opts.cancelled()?;
+        pool.with(
+            || RowScratch::new(n),
+            |scratch| {
+                for (k, length) in lengths.iter_mut().enumerate() {
+                    let v = c * ROW_CHUNK + k;
+                    *length = scratch.count::<S>(v, corners.of(v), cells);
+                }
+            },
+        );
+        Ok::<(), crate::Error>(())
+    })?;
+    let mut by_user = vec![0u32; n];
+    for (&u, &len) in vertex_of.iter().zip(&length) {
+        by_user[u as usize] = len;
+    }
+    let mut indptr = Vec::with_capacity(n + 1);
+    indptr.push(0);
+    for len in by_user {
+        indptr.push(indptr.last().expect("starts with 0") + len as usize);
+    }
+    Ok(indptr)
+}
+
 /// CSR pattern of a mesh and the slot map of its row-wise assembly.
 ///
 /// Row `i` of an operator is assembled from the elements around vertex `i`, in ascending
@@ -68,29 +193,45 @@ pub struct Topology {
 }
 
 impl Topology {
-    /// Builds the topology of a mesh (its user-order `cells`) in its internal order (see
-    /// [`crate::assembly::order`]).
-    pub(crate) fn new<S: Simplex>(layout: &Layout<S>, cells: &[S::Cell], opts: &Options) -> Result<Self> {
-        #[derive(Default)]
-        struct Pattern {
-            cols: Vec<u32>,
-            slots: Vec<u32>,
-            diagonal: Vec<u32>,
+    /// Builds the topology of a mesh in its internal order `layout` (see
+    /// [`crate::assembly::order`]) with its corner incidence `corners`.
+    pub(crate) fn new<S: Simplex>(layout: &Layout<S>, corners: Incidence, opts: &Options) -> Result<Self> {
+        let rows = Rows::<S> { cells: &layout.cells, vertex_of: &layout.vertex_of, corners };
+        let indptr = row_starts::<S>(&layout.cells, &rows.corners, &layout.vertex_of, opts)?;
+        let (n, k) = (layout.n_vertices(), S::CORNERS - 1);
+        let mut indices = vec![0u32; *indptr.last().expect("n + 1 entries")];
+        let mut corner_slots = vec![0u32; k * rows.corners.items.len()];
+        let mut diagonal = vec![0u32; n];
+        {
+            let mut user_rows = rows_in_internal_order(&mut indices, &indptr, &layout.vertex_of);
+            // the slots of every row, split at the rows' corner ranges
+            let offsets: Vec<usize> = rows.corners.offsets.iter().map(|&o| k * o).collect();
+            let slot_rows = groups_mut(&mut corner_slots, &offsets);
+            let mut work: Vec<_> = user_rows.iter_mut().zip(slot_rows).zip(diagonal.iter_mut()).collect();
+            let pool = Pool::new();
+            work.par_chunks_mut(ROW_CHUNK).enumerate().try_for_each(|(c, chunk)| {
+                opts.cancelled()?;
+                pool.with(
+                    || (RowScratch::new(n), vec![0u32; n]),
+                    |(scratch, position)| {
+                        for (r, ((out, slots), diagonal)) in chunk.iter_mut().enumerate() {
+                            let v = c * ROW_CHUNK + r;
+                            let items = rows.corners.of(v);
+                            let keys = scratch.columns::<S>(v, items, &layout.cells, &layout.vertex_of);
+                            for (p, (&key, out)) in keys.iter().zip(out.iter_mut()).enumerate() {
+                                position[key as u32 as usize] = p as u32;
+                                *out = (key >> 32) as u32;
+                            }
+                            **diagonal = position[v];
+                            row_slots::<S>(items, &layout.cells, position, slots);
+                        }
+                    },
+                );
+                Ok::<(), crate::Error>(())
+            })?;
         }
-        let rows = Rows::<S>::new(layout, cells, opts)?;
-        let built = rows.build_all(opts, |_, row, out: &mut Pattern| {
-            out.cols.extend_from_slice(row.cols);
-            out.slots.extend_from_slice(row.slots);
-            out.diagonal.push(row.diagonal);
-        })?;
-        let vertex_of = &layout.vertex_of[..];
-        let indices = built.gather(vertex_of, |p| &p.cols);
-        // slots and diagonals are per internal corner / row: the chunks in order
-        let corner_slots = built.chunks.iter().flat_map(|(p, _)| &p.slots).copied().collect();
-        let diagonal = built.chunks.iter().flat_map(|(p, _)| &p.diagonal).copied().collect();
-        let Built { indptr, .. } = built;
-        let n = vertex_of.len();
-        Ok(Topology { n, corners: rows.corners, corner_slots, diagonal, vertex_of: vertex_of.to_vec(), indptr, indices })
+        let Rows { corners, .. } = rows;
+        Ok(Topology { n, corners, corner_slots, diagonal, vertex_of: layout.vertex_of.clone(), indptr, indices })
     }
 
     /// Internal vertex -> user vertex (row of the output).
@@ -135,30 +276,47 @@ impl Topology {
     }
 }
 
+/// The slots of the element-corners `items` of one row: for each, the positions in the row
+/// (`position[u]` of internal vertex `u`) of the other corners of its element, ascending
+/// corner order.
+#[inline]
+fn row_slots<S: Simplex>(items: &[u32], cells: &[S::Cell], position: &[u32], slots: &mut [u32]) {
+    let k = S::CORNERS;
+    let mut out = slots.iter_mut();
+    for &item in items {
+        let (cell, c) = (cells[item as usize / k].as_ref(), item as usize % k);
+        for (o, &u) in cell.iter().enumerate() {
+            if o != c {
+                *out.next().expect("K - 1 slots per corner") = position[u as usize];
+            }
+        }
+    }
+}
+
 /// One row of the pattern as built from the elements around its vertex.
 pub(crate) struct Row<'a> {
     /// Columns sorted by the user's vertex index: the vertex and its neighbours.
     pub cols: &'a [u32],
     /// For the q-th element-corner around the vertex, the positions in `cols` of the other
     /// `K - 1` corners of its element (ascending corner order): `slots[(K-1) q ..]`.
+    #[allow(dead_code)]
     pub slots: &'a [u32],
     /// Position of the vertex itself in `cols`.
+    #[allow(dead_code)]
     pub diagonal: u32,
 }
 
-/// Scratch of one worker thread: a position per vertex (`u32::MAX` when unused, and
-/// restored to that after every row) and small buffers.
-#[derive(Default)]
+/// Scratch of [`Rows::build`]: row building and positions per vertex, with the row's
+/// buffers.
 struct Scratch {
+    rows: RowScratch,
     position: Vec<u32>,
     cols: Vec<u32>,
     slots: Vec<u32>,
-    order: Vec<(u32, u32)>,
-    rank: Vec<u32>,
 }
 
 thread_local! {
-    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+    static SCRATCH: std::cell::RefCell<Option<Scratch>> = const { std::cell::RefCell::new(None) };
 }
 
 /// The rows of a mesh's pattern, built on demand from the elements around each vertex.
@@ -166,36 +324,6 @@ pub(crate) struct Rows<'a, S: Simplex> {
     cells: &'a [S::Cell],
     vertex_of: &'a [u32],
     pub corners: Incidence,
-}
-
-/// Every row of a pattern built once ([`Rows::build_all`]): the user-order row starts and,
-/// per chunk of [`ROW_CHUNK`] internal rows, its buffers and row lengths.
-pub(crate) struct Built<B> {
-    pub indptr: Vec<usize>,
-    pub chunks: Vec<(B, Vec<u32>)>,
-}
-
-impl<B: Sync> Built<B> {
-    /// Number of stored entries.
-    pub fn nnz(&self) -> usize {
-        *self.indptr.last().expect("n + 1 entries")
-    }
-
-    /// One per-entry array of the rows in the user's order: `part(buffers)` is a chunk's
-    /// rows of it, concatenated in internal order.
-    pub fn gather<T: Copy + Default + Send + Sync>(&self, vertex_of: &[u32], part: impl Fn(&B) -> &Vec<T> + Sync) -> Vec<T> {
-        let mut out = vec![T::default(); self.nnz()];
-        let mut rows = rows_in_internal_order(&mut out, &self.indptr, vertex_of);
-        rows.par_chunks_mut(ROW_CHUNK).zip(&self.chunks).for_each(|(rows, (buffers, lengths))| {
-            let mut from = part(buffers).as_slice();
-            for (row, &len) in rows.iter_mut().zip(lengths) {
-                let (head, rest) = from.split_at(len as usize);
-                row.copy_from_slice(head);
-                from = rest;
-            }
-        });
-        out
-    }
 }
 
 impl<'a, S: Simplex> Rows<'a, S> {
@@ -206,91 +334,25 @@ impl<'a, S: Simplex> Rows<'a, S> {
         Ok(Rows { cells: &layout.cells, vertex_of: &layout.vertex_of, corners })
     }
 
-    /// Builds every internal row once ([`Rows::build`]), in parallel chunks of
-    /// [`ROW_CHUNK`] rows: `fill(v, row, buffers)` appends what row `v` contributes to its
-    /// chunk's buffers. The row starts in the user's order follow from the lengths, and
-    /// [`Built::gather`] moves per-entry arrays there: one build and one copy, instead of a
-    /// counting pass and a second build.
-    pub fn build_all<B: Default + Send>(&self, opts: &Options, fill: impl Fn(usize, Row, &mut B) + Sync) -> Result<Built<B>> {
-        let n = self.vertex_of.len();
-        let chunks: Vec<(B, Vec<u32>)> = (0..n.div_ceil(ROW_CHUNK))
-            .into_par_iter()
-            .map(|c| {
-                opts.cancelled()?;
-                let mut buffers = B::default();
-                let lengths = (c * ROW_CHUNK..n.min((c + 1) * ROW_CHUNK))
-                    .map(|v| {
-                        self.build(v, |row| {
-                            let len = row.cols.len() as u32;
-                            fill(v, row, &mut buffers);
-                            len
-                        })
-                    })
-                    .collect();
-                Ok((buffers, lengths))
-            })
-            .collect::<Result<_>>()?;
-        let mut by_user = vec![0u32; n];
-        for (&u, &len) in self.vertex_of.iter().zip(chunks.iter().flat_map(|(_, l)| l)) {
-            by_user[u as usize] = len;
-        }
-        let mut indptr = Vec::with_capacity(n + 1);
-        indptr.push(0);
-        for len in by_user {
-            indptr.push(indptr.last().expect("starts with 0") + len as usize);
-        }
-        Ok(Built { indptr, chunks })
-    }
-
-    /// Internal row `v` in order of first appearance: columns (internal ids) and the slots
-    /// of every corner item.
-    fn build_unsorted<R>(&self, v: usize, f: impl FnOnce(&[u32], &[u32]) -> R) -> R {
-        SCRATCH.with(|scratch| {
-            let s = &mut *scratch.borrow_mut();
-            let n = self.corners.offsets.len() - 1;
-            if s.position.len() < n {
-                s.position.resize(n, u32::MAX);
-            }
-            s.cols.clear();
-            s.slots.clear();
-            s.position[v] = 0;
-            s.cols.push(v as u32);
-            let k = S::CORNERS;
-            for &item in self.corners.of(v) {
-                let (cell, c) = (self.cells[item as usize / k].as_ref(), item as usize % k);
-                for o in (0..k).filter(|&o| o != c) {
-                    let u = cell[o] as usize;
-                    if s.position[u] == u32::MAX {
-                        s.position[u] = s.cols.len() as u32;
-                        s.cols.push(u as u32);
-                    }
-                    s.slots.push(s.position[u]);
-                }
-            }
-            for &u in &s.cols {
-                s.position[u as usize] = u32::MAX;
-            }
-            f(&s.cols, &s.slots)
-        })
-    }
-
     /// Internal row `v` with its columns as user indices, sorted (see [`Row`]).
     pub fn build<R>(&self, v: usize, f: impl FnOnce(Row) -> R) -> R {
-        self.build_unsorted(v, |_, _| ());
+        let n = self.vertex_of.len();
         SCRATCH.with(|scratch| {
-            let s = &mut *scratch.borrow_mut();
-            s.order.clear();
-            s.order.extend(s.cols.iter().enumerate().map(|(k, &u)| (self.vertex_of[u as usize], k as u32)));
-            s.order.sort_unstable();
-            s.rank.resize(s.cols.len(), 0);
-            for (pos, &(user, first)) in s.order.iter().enumerate() {
-                s.rank[first as usize] = pos as u32;
-                s.cols[pos] = user;
+            let mut scratch = scratch.borrow_mut();
+            if scratch.as_ref().is_none_or(|s| s.position.len() != n) {
+                *scratch = Some(Scratch { rows: RowScratch::new(n), position: vec![0; n], cols: vec![], slots: vec![] });
             }
-            for slot in s.slots.iter_mut() {
-                *slot = s.rank[*slot as usize];
+            let s = scratch.as_mut().expect("made above");
+            let items = self.corners.of(v);
+            let keys = s.rows.columns::<S>(v, items, self.cells, self.vertex_of);
+            s.cols.clear();
+            for (p, &key) in keys.iter().enumerate() {
+                s.position[key as u32 as usize] = p as u32;
+                s.cols.push((key >> 32) as u32);
             }
-            let diagonal = s.rank[0];
+            s.slots.resize((S::CORNERS - 1) * items.len(), 0);
+            row_slots::<S>(items, self.cells, &s.position, &mut s.slots);
+            let diagonal = s.position[v];
             f(Row { cols: &s.cols, slots: &s.slots, diagonal })
         })
     }
@@ -299,7 +361,7 @@ impl<'a, S: Simplex> Rows<'a, S> {
 /// Element-corners `K t + c` (internal `t`) per internal vertex, in ascending user element
 /// index, from the user's `cells` (`rank[u]`: internal index of user vertex `u`;
 /// `internal_of[e]`: internal index of user element `e`).
-fn corner_incidence<S: Simplex>(
+pub(crate) fn corner_incidence<S: Simplex>(
     cells: &[S::Cell],
     rank: &[u32],
     internal_of: &[u32],
@@ -311,7 +373,7 @@ fn corner_incidence<S: Simplex>(
         let item = k as u32 * internal_of[e] + c as u32;
         (rank[cells[e].as_ref()[c] as usize], item)
     };
-    let (offsets, items) = group_by(rank.len(), k * cells.len(), corner, opts)?;
+    let (offsets, items) = group_u32(rank.len(), k * cells.len(), corner, opts)?;
     Ok(Incidence { offsets, items })
 }
 
@@ -336,7 +398,8 @@ mod tests {
             weights: None,
             dim: 3,
         };
-        let t = Topology::new::<Tet>(&layout, &user_cells, &Options::default()).unwrap();
+        let corners = corner_incidence::<Tet>(&user_cells, &layout.rank, &layout.internal_of, &Options::default()).unwrap();
+        let t = Topology::new::<Tet>(&layout, corners, &Options::default()).unwrap();
         assert_eq!(t.edges().len(), 9);
         let row = |i: usize| &t.indices()[t.indptr()[i]..t.indptr()[i + 1]];
         assert_eq!(row(5), &[5]); // unreferenced: diagonal only
@@ -352,5 +415,29 @@ mod tests {
         let q = t.corners.offsets[v] + q;
         let slots = &t.corner_slots[3 * q..3 * q + 3];
         assert_eq!(slots.iter().map(|&s| row(2)[s as usize]).collect::<Vec<_>>(), [4, 3, 1]);
+        // the rows on demand and their counts are the same
+        let rows = Rows::<Tet>::new(&layout, &user_cells, &Options::default()).unwrap();
+        let starts = row_starts::<Tet>(&layout.cells, &rows.corners, &layout.vertex_of, &Options::default()).unwrap();
+        assert_eq!(starts, t.indptr());
+        for v in 0..6 {
+            rows.build(v, |r| assert_eq!(r.cols, row(layout.vertex_of[v] as usize)));
+        }
+    }
+
+    #[test]
+    fn short_rows_sort_like_the_library() {
+        let mut state = 9u64;
+        for len in [0, 1, 2, 15, 32, 33, 100] {
+            let mut keys: Vec<u64> = (0..len)
+                .map(|_| {
+                    state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    state >> 40
+                })
+                .collect();
+            let mut expected = keys.clone();
+            expected.sort_unstable();
+            sort_small(&mut keys);
+            assert_eq!(keys, expected);
+        }
     }
 }

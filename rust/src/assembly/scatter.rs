@@ -9,7 +9,9 @@ use crate::assembly::order::Layout;
 use crate::options::{MassKind, Options};
 use crate::element::{edge_index, Simplex};
 use crate::topology::group::Incidence;
-use crate::assembly::pattern::{for_each_row, rows_in_internal_order, Rows, Topology};
+use crate::assembly::pass::{values_by, Elements, FirstFault, Pool};
+use crate::assembly::pattern::{for_each_row, rows_in_internal_order, RowScratch, Topology, ROW_CHUNK};
+use crate::element::Request;
 use rayon::prelude::*;
 
 /// Fills one row of an operator: entry `(i, j)` is the sum, over the elements around `i`
@@ -77,50 +79,272 @@ fn gather_rows<S: Simplex>(
     }
 }
 
-/// One-shot assembly: every row is built once, its values filled at once into its chunk's
-/// buffers, then moved to the user's order. Returns the row starts, the column indices
-/// and, if asked, the Laplacian's values (from per-element weights) and the consistent
-/// mass's values (from per-element measures in slot 0 of `vol`).
-#[allow(clippy::type_complexity)]
-fn assemble_rows<S: Simplex>(
-    rows: &Rows<S>,
-    vertex_of: &[u32],
-    w: Option<&[S::EdgeValues]>,
-    vol: Option<&[S::CornerValues]>,
+/// Elements per stripe of a one-shot assembly (the per-element values of a stripe are held
+/// at once: 48 bytes per tet for a Laplacian, 32 more for a mass).
+const STRIPE_ELEMENTS: usize = 1 << 16;
+
+/// The scratch of one worker filling rows.
+struct RowWork {
+    rows: RowScratch,
+    /// Position in the current row of every internal vertex (stale outside it).
+    position: Vec<u32>,
+    /// The values of the current row.
+    row: Vec<f64>,
+}
+
+/// The output rows of some internal rows (user-order slices, listed in internal order).
+struct RowsOut<'s, 'a> {
+    indices: &'s mut [&'a mut [u32]],
+    lap: Option<&'s mut [&'a mut [f64]]>,
+    fem: Option<&'s mut [&'a mut [f64]]>,
+    lumped: Option<&'s mut [f64]>,
+}
+
+impl<'s, 'a> RowsOut<'s, 'a> {
+    /// The outputs split at `bounds` (internal rows relative to the first).
+    fn split(self, bounds: &[usize]) -> Vec<RowsOut<'s, 'a>> {
+        split_at_bounds(self.indices, bounds)
+            .into_iter()
+            .zip(parts_of(self.lap, bounds))
+            .zip(parts_of(self.fem, bounds))
+            .zip(parts_of(self.lumped, bounds))
+            .map(|(((indices, lap), fem), lumped)| RowsOut { indices, lap, fem, lumped })
+            .collect()
+    }
+}
+
+/// `v` (if any) split at `bounds`, or no part for each.
+fn parts_of<'s, T>(v: Option<&'s mut [T]>, bounds: &[usize]) -> Vec<Option<&'s mut [T]>> {
+    match v {
+        Some(v) => split_at_bounds(v, bounds).into_iter().map(Some).collect(),
+        None => (1..bounds.len()).map(|_| None).collect(),
+    }
+}
+
+/// `v` split at `bounds` (ascending, from 0 to `v.len()`).
+fn split_at_bounds<'a, T>(mut v: &'a mut [T], bounds: &[usize]) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(bounds.len().saturating_sub(1));
+    for w in bounds.windows(2) {
+        let (head, rest) = v.split_at_mut(w[1] - w[0]);
+        out.push(head);
+        v = rest;
+    }
+    out
+}
+
+/// One-shot assembly of `request` on the rows starting at `indptr` (user order): the
+/// Laplacian from the elements' edge values, the mass from their corner values.
+///
+/// The internal rows are cut into stripes of about [`STRIPE_ELEMENTS`] elements, one after
+/// the other. A stripe computes, in parallel chunks, the values of its elements (those
+/// whose first vertex is one of its rows, a contiguous range of the internal order) and of
+/// the elements of earlier stripes around its rows ("ghosts"), then builds and fills its
+/// rows in parallel chunks, each written once in its place: entry `(i, j)` is the sum over
+/// the elements around `i` in ascending user index (the corner incidence) of their value
+/// at edge `ij`; the diagonal is minus the row's sum in column order (the Laplacian) or
+/// the FEM diagonal; a lumped mass is the sum of the corner values. Only one stripe's
+/// values are held at once. [`gather_rows`] sums the same way: one-shot, cached and
+/// updated operators agree bit for bit.
+pub(crate) fn assemble<S: Simplex>(
+    layout: &Layout<S>,
+    elements: &Elements<S>,
+    corners: &Incidence,
+    indptr: Vec<usize>,
+    request: Request,
     opts: &Options,
-) -> Result<(Vec<usize>, Vec<u32>, Option<Vec<f64>>, Option<Vec<f64>>)> {
-    #[derive(Default)]
-    struct Values {
-        cols: Vec<u32>,
-        lap: Vec<f64>,
-        fem: Vec<f64>,
-    }
-    /// `values` grown by one row of `len` zeros: the new row.
-    fn new_row(values: &mut Vec<f64>, len: usize) -> &mut [f64] {
-        let start = values.len();
-        values.resize(start + len, 0.0);
-        &mut values[start..]
-    }
-    let off = S::FEM.0;
-    let built = rows.build_all(opts, |v, row, out: &mut Values| {
-        let items = rows.corners.of(v);
-        let diag = row.diagonal as usize;
-        out.cols.extend_from_slice(row.cols);
-        if let Some(w) = w {
-            let values = new_row(&mut out.lap, row.cols.len());
-            fill_row::<S>(values, items, row.slots, diag, &|t, e| w[t].as_ref()[e], |s| -s);
+) -> Result<(Option<Csr>, Option<Mass>)> {
+    let (n, nnz) = (layout.n_vertices(), *indptr.last().expect("n + 1 entries"));
+    let cells = &layout.cells[..];
+    let fem_mass = request.mass == Some(MassKind::Fem);
+    let mut indices = vec![0u32; nnz];
+    let mut lap = request.laplacian.map(|_| vec![0.0; nnz]);
+    let mut fem = fem_mass.then(|| vec![0.0; nnz]);
+    let mut lumped = request.mass.filter(|_| !fem_mass).map(|_| vec![0.0; n]);
+    // stripes: whole row chunks, about STRIPE_ELEMENTS elements each (the first vertex of
+    // internal element t is non-decreasing in t)
+    let per_stripe = (STRIPE_ELEMENTS * n / cells.len().max(1)).max(1).div_ceil(ROW_CHUNK) * ROW_CHUNK;
+    let bounds: Vec<usize> = (0..n).step_by(per_stripe).chain([n]).collect();
+    let first = |c: &S::Cell| *c.as_ref().iter().min().expect("corners") as usize;
+    let element_bounds: Vec<usize> = bounds.iter().map(|&v| cells.partition_point(|c| first(c) < v)).collect();
+    {
+        let (indptr, vertex_of) = (&indptr, &layout.vertex_of[..]);
+        let mut index_rows = rows_in_internal_order(&mut indices, indptr, vertex_of);
+        let mut lap_rows = lap.as_deref_mut().map(|d| rows_in_internal_order(d, indptr, vertex_of));
+        let mut fem_rows = fem.as_deref_mut().map(|d| rows_in_internal_order(d, indptr, vertex_of));
+        let all = RowsOut {
+            indices: &mut index_rows,
+            lap: lap_rows.as_deref_mut(),
+            fem: fem_rows.as_deref_mut(),
+            lumped: lumped.as_deref_mut(),
+        };
+        let mut values = Values::<S> { ghosts: vec![], local_of: vec![0; cells.len()], own: 0..0, w: vec![], m: vec![] };
+        let pool = Pool::new();
+        let mut first = FirstFault::default();
+        for (s, out) in all.split(&bounds).into_iter().enumerate() {
+            let (rows, own) = (bounds[s]..bounds[s + 1], element_bounds[s]..element_bounds[s + 1]);
+            first.merge(values.compute(elements, corners, rows.clone(), own, request, opts)?);
+            fill_rows(layout, corners, &values, rows, out, &pool, opts)?;
         }
-        if let Some(vol) = vol {
-            let d = fem_diagonal::<S>(items, vol);
-            let values = new_row(&mut out.fem, row.cols.len());
-            fill_row::<S>(values, items, row.slots, diag, &|t, _| vol[t].as_ref()[0] / off, |_| d);
-        }
-    })?;
+        first.into_result(opts.degenerate)?;
+    }
     opts.cancelled()?;
-    let indices = built.gather(vertex_of, |b| &b.cols);
-    let lap = w.map(|_| built.gather(vertex_of, |b| &b.lap));
-    let fem = vol.map(|_| built.gather(vertex_of, |b| &b.fem));
-    Ok((built.indptr, indices, lap, fem))
+    let laplacian = lap.map(|data| Csr { n, indptr: indptr.clone(), indices: indices.clone(), data });
+    let mass = match (lumped, fem) {
+        (Some(internal), _) => Some(Mass::Lumped(layout.to_user_vertices(&internal))),
+        (_, Some(data)) => Some(Mass::Consistent(Csr { n, indptr, indices, data })),
+        _ => None,
+    };
+    if let Some(l) = &laplacian {
+        finite_rows(&l.indptr, &l.data)?;
+    }
+    match &mass {
+        Some(Mass::Lumped(m)) => finite_rows(&(0..=n).collect::<Vec<_>>(), m)?,
+        Some(Mass::Consistent(m)) => finite_rows(&m.indptr, &m.data)?,
+        None => {}
+    }
+    Ok((laplacian, mass))
+}
+
+/// The per-element values of one stripe: its own elements (a range of the internal order)
+/// then its ghosts.
+struct Values<S: Simplex> {
+    /// Elements of earlier stripes around the stripe's rows, ascending.
+    ghosts: Vec<u32>,
+    /// The place of every ghost among the values (stale for other elements).
+    local_of: Vec<u32>,
+    own: std::ops::Range<usize>,
+    w: Vec<S::EdgeValues>,
+    m: Vec<S::CornerValues>,
+}
+
+impl<S: Simplex> Values<S> {
+    /// The values `request` asks for of the elements around `rows`, whose own elements are
+    /// `own`: the first faulty one.
+    fn compute(
+        &mut self,
+        elements: &Elements<S>,
+        corners: &Incidence,
+        rows: std::ops::Range<usize>,
+        own: std::ops::Range<usize>,
+        request: Request,
+        opts: &Options,
+    ) -> Result<FirstFault> {
+        opts.cancelled()?;
+        let k = S::CORNERS as u32;
+        let items = &corners.items[corners.offsets[rows.start]..corners.offsets[rows.end]];
+        self.ghosts.clear();
+        self.ghosts.extend(items.iter().map(|&q| q / k).filter(|&t| (t as usize) < own.start));
+        self.ghosts.par_sort_unstable();
+        self.ghosts.dedup();
+        for (i, &g) in self.ghosts.iter().enumerate() {
+            self.local_of[g as usize] = (own.len() + i) as u32;
+        }
+        let count = own.len() + self.ghosts.len();
+        let ghosts = &self.ghosts;
+        let t_of = |i: usize| if i < own.len() { own.start + i } else { ghosts[i - own.len()] as usize };
+        self.w.clear();
+        self.m.clear();
+        if request.laplacian.is_some() {
+            self.w.resize(count, S::EdgeValues::default());
+        }
+        if request.mass.is_some() {
+            self.m.resize(count, S::CornerValues::default());
+        }
+        let w = request.laplacian.map(|_| &mut self.w[..]);
+        let m = request.mass.map(|_| &mut self.m[..]);
+        let faults = values_by(elements, opts, count, t_of, request, w, m)?;
+        self.own = own;
+        Ok(faults)
+    }
+
+    /// Where the values of internal element `t` are.
+    #[inline]
+    fn local(&self, t: usize) -> usize {
+        if t >= self.own.start { t - self.own.start } else { self.local_of[t] as usize }
+    }
+}
+
+/// Builds and fills the internal `rows` of a stripe (see [`assemble`]) into `out`, in
+/// parallel chunks of [`ROW_CHUNK`] rows.
+fn fill_rows<S: Simplex>(
+    layout: &Layout<S>,
+    corners: &Incidence,
+    values: &Values<S>,
+    rows: std::ops::Range<usize>,
+    out: RowsOut,
+    pool: &Pool<RowWork>,
+    opts: &Options,
+) -> Result<()> {
+    let n = layout.n_vertices();
+    let bounds: Vec<usize> = (0..rows.len()).step_by(ROW_CHUNK).chain([rows.len()]).collect();
+    out.split(&bounds).into_par_iter().enumerate().try_for_each(|(c, out)| {
+        opts.cancelled()?;
+        let first = rows.start + c * ROW_CHUNK;
+        let make = || RowWork { rows: RowScratch::new(n), position: vec![0; n], row: vec![] };
+        pool.with(make, |work| fill_chunk::<S>(layout, corners, values, first, out, work));
+        Ok(())
+    })
+}
+
+/// [`fill_rows`] for the internal rows from `first` on, one chunk.
+fn fill_chunk<S: Simplex>(
+    layout: &Layout<S>,
+    corners: &Incidence,
+    values: &Values<S>,
+    first: usize,
+    out: RowsOut,
+    work: &mut RowWork,
+) {
+    let k = S::CORNERS;
+    let RowWork { rows: builder, position, row } = work;
+    let RowsOut { indices, mut lap, mut fem, mut lumped } = out;
+    let (w, m) = (&values.w, &values.m);
+    for (r, index_row) in indices.iter_mut().enumerate() {
+        let v = first + r;
+        // the row's columns, sorted by user index, and where each lands
+        let items = corners.of(v);
+        let keys = builder.columns::<S>(v, items, &layout.cells, &layout.vertex_of);
+        for (p, (&key, index)) in keys.iter().zip(index_row.iter_mut()).enumerate() {
+            position[key as u32 as usize] = p as u32;
+            *index = (key >> 32) as u32;
+        }
+        let (len, diag) = (keys.len(), position[v] as usize);
+        // each row is summed in a buffer and then written to its place: stores only there
+        if let Some(lap) = lap.as_deref_mut() {
+            row.clear();
+            row.resize(len, 0.0);
+            for &item in items {
+                let (t, c) = (item as usize / k, item as usize % k);
+                let (cell, value) = (layout.cells[t].as_ref(), w[values.local(t)]);
+                for (o, &u) in cell.iter().enumerate() {
+                    if o != c {
+                        row[position[u as usize] as usize] += value.as_ref()[edge_index(k, c, o)];
+                    }
+                }
+            }
+            let sum: f64 = row.iter().sum();
+            row[diag] = -sum;
+            lap[r].copy_from_slice(row);
+        }
+        if let Some(fem) = fem.as_deref_mut() {
+            row.clear();
+            row.resize(len, 0.0);
+            for &item in items {
+                let (t, c) = (item as usize / k, item as usize % k);
+                let value = m[values.local(t)].as_ref()[0] / S::FEM.0;
+                for (o, &u) in layout.cells[t].as_ref().iter().enumerate() {
+                    if o != c {
+                        row[position[u as usize] as usize] += value;
+                    }
+                }
+            }
+            row[diag] = items.iter().map(|&q| m[values.local(q as usize / k)].as_ref()[0] / S::FEM.1).sum();
+            fem[r].copy_from_slice(row);
+        }
+        if let Some(lumped) = lumped.as_deref_mut() {
+            lumped[r] = items.iter().map(|&q| m[values.local(q as usize / k)].as_ref()[q as usize % k]).sum();
+        }
+    }
 }
 
 /// Sum over the elements around every internal vertex (ascending user index) of
@@ -134,35 +358,6 @@ fn gather_vertices<S: Simplex>(
         .into_par_iter()
         .map(|v| corners.of(v).iter().map(|&q| corner(q as usize / k, q as usize % k)).sum())
         .collect()
-}
-
-/// One-shot assembly of the requested operators from per-element values in internal
-/// order: the Laplacian from edge weights `w`, the mass of `kind` from corner masses `m`.
-pub(crate) fn assemble<S: Simplex>(
-    layout: &Layout<S>,
-    rows: Rows<S>,
-    w: Option<&[S::EdgeValues]>,
-    mass: Option<(MassKind, &[S::CornerValues])>,
-    opts: &Options,
-) -> Result<(Option<Csr>, Option<Mass>)> {
-    let fem = mass.and_then(|(kind, m)| (kind == MassKind::Fem).then_some(m));
-    let lumped = mass.filter(|(kind, _)| *kind != MassKind::Fem).map(|(_, m)| {
-        let internal = gather_vertices::<S>(&rows.corners, |t, c| m[t].as_ref()[c]);
-        Mass::Lumped(layout.to_user_vertices(&internal))
-    });
-    let (indptr, indices, lap, fem) = assemble_rows(&rows, &layout.vertex_of, w, fem, opts)?;
-    let n = layout.n_vertices();
-    let laplacian = lap.map(|data| Csr { n, indptr: indptr.clone(), indices: indices.clone(), data });
-    let mass = lumped.or_else(|| fem.map(|data| Mass::Consistent(Csr { n, indptr, indices, data })));
-    if let Some(l) = &laplacian {
-        finite_rows(&l.indptr, &l.data)?;
-    }
-    match &mass {
-        Some(Mass::Lumped(m)) => finite_rows(&(0..=n).collect::<Vec<_>>(), m)?,
-        Some(Mass::Consistent(m)) => finite_rows(&m.indptr, &m.data)?,
-        None => {}
-    }
-    Ok((laplacian, mass))
 }
 
 /// [`crate::Error::SumOverflow`] for the first row (user order) of `data` (split at

@@ -75,7 +75,7 @@ use crate::mesh::TetView;
 use crate::options::{Boundary, LaplacianKind, MassKind, Options};
 use crate::assembly::pass::{chunked, CHUNK};
 use crate::element::{Element, Fault, Simplex, Tet};
-use crate::topology::group::{group_by, Incidence};
+use crate::topology::group::{group_u32, Incidence};
 use rayon::prelude::*;
 
 /// A real `n x k` array, row-major: one row per vertex (`k = 1` for a scalar function).
@@ -442,7 +442,7 @@ pub fn vjp(mesh: &TetView, cotangents: &Cotangents, opts: &Options) -> Result<Me
             || {
                 // element-corners `4 t + c` around every vertex, ascending
                 let corner = |r: usize| (mesh.cells()[r / 4][r % 4], r as u32);
-                group_by(n, 4 * m, corner, opts).map(|(offsets, items)| Incidence { offsets, items })
+                group_u32(n, 4 * m, corner, opts).map(|(offsets, items)| Incidence { offsets, items })
             },
         );
         let (slots, incidence) = (slots?, incidence?);

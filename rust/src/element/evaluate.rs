@@ -27,6 +27,7 @@
 //! computed in a QR frame of their own space, in double-double too when not well-shaped.
 
 use super::simplex::{Simplex, Values};
+use super::tet::batch::{Frames, Lanes, LANES};
 use super::tet::Placement;
 use crate::options::{LaplacianKind, MassKind};
 use std::cell::OnceCell;
@@ -45,6 +46,16 @@ pub(crate) enum Fault {
     /// Its values are fine, but what a caller multiplies them with (a derivative's
     /// cotangents) leaves the `f64` range: never skipped, whatever the policy.
     Overflow,
+}
+
+/// What a pass asks of every element: the edge values of a Laplacian, the corner values
+/// of a mass, or both.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Request {
+    /// The Laplacian whose edge values (`w_ij`) are asked for.
+    pub laplacian: Option<LaplacianKind>,
+    /// The mass whose corner values are asked for.
+    pub mass: Option<MassKind>,
 }
 
 /// An element's dual: edge weights and cell volumes (each checked by whoever asks for it).
@@ -167,5 +178,190 @@ impl<'a, S: Simplex> Element<'a, S> {
             MassKind::Mixed => self.mixed.get_or_init(|| self.evaluate(None, Placement::Snapped)).1,
             MassKind::Fem => filled(S::measure(&self.local)),
         })
+    }
+}
+
+/// [`Request`] on up to [`LANES`] tets of `points` (R^3, no vertex weights, no boundary fix)
+/// at once, by the batched `f64` kernels ([`super::tet::batch`]): the values of every tet
+/// that the rule computes in `f64` from its float determinant and whose values are
+/// finite, in `w[k]` / `m[k]` for `cells[k]`, flagged `true`. The others (the precise and
+/// careful paths, exact determinants, faults) are left to [`tets_precise_at_once`] and
+/// [`Element`]; the flagged values are bit for bit [`Element`]'s.
+pub(crate) fn tets_at_once(
+    points: &[f64],
+    cells: &[[u32; 4]],
+    request: Request,
+    w: &mut [[f64; 6]],
+    m: &mut [[f64; 4]],
+) -> [bool; LANES] {
+    if request.mass == Some(MassKind::Mixed) {
+        return [false; LANES];
+    }
+    let lanes = cells.len().min(LANES);
+    let corners: [[Lanes; 3]; 4] = std::array::from_fn(|c| {
+        std::array::from_fn(|a| std::array::from_fn(|i| if i < lanes { points[3 * cells[i][c] as usize + a] } else { 0.0 }))
+    });
+    let f = Frames::new(&corners);
+    let mut ok = f.plain;
+    ok[lanes..].fill(false);
+    finish(request, ok, || f.primal(), || f.dual(), f.volume(), &mut w[..lanes], &mut m[..lanes])
+}
+
+/// [`Request`] on up to [`LANES`] tets of `points` (as [`tets_at_once`]) that take the
+/// precise path (not well shaped, not flat), at once in double-double
+/// ([`crate::element::exact::DdLanes`]): the values of those whose values are finite, bit
+/// for bit [`Element`]'s, flagged `true`; the others are left to [`Element`].
+pub(crate) fn tets_precise_at_once(
+    points: &[f64],
+    cells: &[[u32; 4]],
+    request: Request,
+    w: &mut [[f64; 6]],
+    m: &mut [[f64; 4]],
+) -> [bool; LANES] {
+    use super::frame::{local_tet, precise_tet};
+    use super::tet::{circumcentric_dual_precise_lanes, primal_weights_precise_lanes, volume, well_shaped};
+    if request.mass == Some(MassKind::Mixed) {
+        return [false; LANES];
+    }
+    let lanes = cells.len().min(LANES);
+    let corner = |i: usize, c: usize| &points[3 * cells[i][c] as usize..][..3];
+    let x = |i: usize| [corner(i, 0), corner(i, 1), corner(i, 2), corner(i, 3)];
+    let local: [_; LANES] = std::array::from_fn(|i| (i < lanes).then(|| local_tet(x(i), &mut [])));
+    let mut ok: [bool; LANES] = local.map(|t| t.is_some_and(|t| t.det != 0.0 && !well_shaped(&t)));
+    let Some(first) = ok.iter().position(|&p| p) else {
+        return ok;
+    };
+    // the precise frames (lanes that take no precise path compute the first one's again)
+    let lane = |i: usize| if ok[i] { i } else { first };
+    let frames: [_; LANES] = std::array::from_fn(|i| {
+        let t = local[lane(i)].expect("a tet");
+        (precise_tet(x(lane(i)), t.scale), t.scale, volume(&t))
+    });
+    let corners = frames.map(|((c, _), _, _)| c);
+    let (det, scale, volume) = (frames.map(|((_, d), _, _)| d), frames.map(|(_, s, _)| s), frames.map(|(_, _, v)| v));
+    ok[lanes..].fill(false);
+    finish(
+        request,
+        ok,
+        || primal_weights_precise_lanes(&corners, det, scale),
+        || circumcentric_dual_precise_lanes(&corners, det, scale),
+        volume,
+        &mut w[..lanes],
+        &mut m[..lanes],
+    )
+}
+
+/// The values `request` asks for from a batch's kernels (`primal`, `dual`: the plain
+/// circumcentric one, `volume`), checked as [`Element`] checks them, into `w` and `m` for
+/// the lanes still `ok`; returns those lanes.
+fn finish(
+    request: Request,
+    mut ok: [bool; LANES],
+    primal: impl FnOnce() -> [Lanes; 6],
+    dual: impl FnOnce() -> ([Lanes; 6], [Lanes; 4]),
+    volume: Lanes,
+    w: &mut [[f64; 6]],
+    m: &mut [[f64; 4]],
+) -> [bool; LANES] {
+    let all_finite = |v: &[Lanes], ok: &mut [bool; LANES]| {
+        for (i, ok) in ok.iter_mut().enumerate() {
+            *ok &= v.iter().all(|x| x[i].is_finite());
+        }
+    };
+    let needs_dual = matches!(request.laplacian, Some(LaplacianKind::Dual | LaplacianKind::Affine(_)))
+        || request.mass == Some(MassKind::Circumcentric);
+    let (dw, dm) = if needs_dual { dual() } else { ([[0.0; LANES]; 6], [[0.0; LANES]; 4]) };
+    if let Some(kind) = request.laplacian {
+        let values = match kind {
+            LaplacianKind::Primal => primal(),
+            LaplacianKind::Dual => dw,
+            LaplacianKind::Affine(s) => {
+                // Element::laplacian: the primal must be finite on its own
+                let p = primal();
+                all_finite(&p, &mut ok);
+                std::array::from_fn(|e| std::array::from_fn(|i| (1.0 - s) * p[e][i] + s * dw[e][i]))
+            }
+        };
+        all_finite(&values, &mut ok);
+        for (k, out) in w.iter_mut().enumerate() {
+            *out = std::array::from_fn(|e| values[e][k]);
+        }
+    }
+    if let Some(kind) = request.mass {
+        for (i, ok) in ok.iter_mut().enumerate() {
+            *ok &= volume[i].is_normal();
+        }
+        let values: [Lanes; 4] = match kind {
+            MassKind::Barycentric => [std::array::from_fn(|i| volume[i] / 4.0); 4],
+            MassKind::Circumcentric => dm,
+            MassKind::Fem => [volume; 4],
+            MassKind::Mixed => unreachable!("no batch serves the mixed mass"),
+        };
+        all_finite(&values, &mut ok);
+        for (k, out) in m.iter_mut().enumerate() {
+            *out = std::array::from_fn(|c| values[c][k]);
+        }
+    }
+    ok
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::element::Tet;
+
+    /// Random tets, a third of them flat (most of those take the precise path), some of
+    /// them exactly flat, in lanes of every occupancy.
+    fn points_and_cells() -> (Vec<f64>, Vec<[u32; 4]>) {
+        let mut state = 5u64;
+        let mut uniform = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let (mut points, mut cells) = (vec![], vec![]);
+        for t in 0..600u32 {
+            let flat = [1.0, 1e-3, 1e-9, 0.0][t as usize % 4];
+            let offset = uniform() * 100.0;
+            for _ in 0..4 {
+                points.extend([uniform() + offset, uniform(), uniform() * flat]);
+            }
+            cells.push([4 * t, 4 * t + 1, 4 * t + 2, 4 * t + 3]);
+        }
+        (points, cells)
+    }
+
+    #[test]
+    fn batches_compute_what_the_one_element_path_computes_bit_for_bit() {
+        let (points, cells) = points_and_cells();
+        let kinds = [LaplacianKind::Primal, LaplacianKind::Dual, LaplacianKind::Affine(0.3)];
+        let masses = [MassKind::Barycentric, MassKind::Circumcentric, MassKind::Fem];
+        let (mut plain, mut precise) = (0, 0);
+        for request in kinds.iter().flat_map(|&l| masses.iter().map(move |&m| Request { laplacian: Some(l), mass: Some(m) })) {
+            for (g, group) in cells.chunks(LANES).enumerate() {
+                let group = &group[..group.len() - g % 3]; // partly filled lanes too
+                let (mut w, mut m) = ([[0.0; 6]; LANES], [[0.0; 4]; LANES]);
+                let (mut pw, mut pm) = ([[0.0; 6]; LANES], [[0.0; 4]; LANES]);
+                let done = tets_at_once(&points, group, request, &mut w, &mut m);
+                let done_precise = tets_precise_at_once(&points, group, request, &mut pw, &mut pm);
+                for (i, cell) in group.iter().enumerate() {
+                    let x = cell.map(|v| &points[3 * v as usize..][..3]);
+                    let local = crate::element::frame::local_tet(x, &mut []);
+                    let el = Element::<Tet>::new(local, &points, 3, *cell, None, false);
+                    let expected = (el.laplacian(request.laplacian.unwrap()), el.corner_mass(request.mass.unwrap()));
+                    assert!(!(done[i] && done_precise[i]), "one route per tet");
+                    let (got_w, got_m) = match (done[i], done_precise[i]) {
+                        (true, _) => (w[i], m[i]),
+                        (_, true) => (pw[i], pm[i]),
+                        _ => continue,
+                    };
+                    plain += done[i] as usize;
+                    precise += done_precise[i] as usize;
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&got_w), bits(&expected.0.expect("computed")), "{request:?} {x:?}");
+                    assert_eq!(bits(&got_m), bits(&expected.1.expect("computed")), "{request:?} {x:?}");
+                }
+            }
+        }
+        assert!(plain > 1000 && precise > 1000, "{plain} plain, {precise} precise");
     }
 }

@@ -21,13 +21,15 @@
 //! precise path: the elements flatter than a float evaluation can serve are evaluated in it
 //! from their exact edge vectors ([`exact_edges`]) and exact determinant ([`det3_dd`]).
 
+use crate::element::tet::batch::{Lanes, LANES};
+
 /// The largest accepted relative error bound of a floating-point determinant (`2^-43`,
 /// about `1.1e-13`); beyond it the determinant is computed exactly.
 pub const DET_RTOL: f64 = 1.0 / (1u64 << 43) as f64;
 
 /// `8 eps` (`eps = 2^-53`): a bound on the relative rounding of a 3 x 3 determinant's
 /// evaluation, inputs' differences included, against the permanent of its absolute values.
-const DET_ERROR: f64 = 8.0 / (1u64 << 53) as f64;
+pub(crate) const DET_ERROR: f64 = 8.0 / (1u64 << 53) as f64;
 
 /// `a + b = s + e` exactly, `s` the rounded sum.
 #[inline]
@@ -39,44 +41,86 @@ pub fn two_sum(a: f64, b: f64) -> (f64, f64) {
 }
 
 /// `a b = p + e` exactly (barring underflow), `p` the rounded product.
+///
+/// Dekker's product of the two halves of each factor (Veltkamp's splitting), which is exact
+/// whenever its partial products neither overflow nor underflow (`|a|, |b| <= 2^995`,
+/// `2^-960 <= |p| <= 2^1000`); otherwise a fused multiply-add (a function call without the
+/// `fma` target feature). Both give the one exact error `ab - p`, bit for bit.
 #[inline]
 pub fn two_product(a: f64, b: f64) -> (f64, f64) {
     let p = a * b;
-    (p, a.mul_add(b, -p))
+    if a.abs() <= SPLIT_MAX && b.abs() <= SPLIT_MAX && (PRODUCT_MIN..=PRODUCT_MAX).contains(&p.abs()) {
+        let (ah, al) = split(a);
+        let (bh, bl) = split(b);
+        (p, ((ah * bh - p) + ah * bl + al * bh) + al * bl)
+    } else {
+        (p, a.mul_add(b, -p))
+    }
 }
 
+/// `a = hi + lo` exactly with 26-bit halves (Veltkamp), for `|a| <= 2^995`.
+#[inline]
+fn split(a: f64) -> (f64, f64) {
+    let c = 134_217_729.0 * a; // 2^27 + 1
+    let hi = c - (c - a);
+    (hi, a - hi)
+}
+
+/// The range where [`two_product`]'s splitting is exact.
+const SPLIT_MAX: f64 = f64::from_bits(((1023 + 995) as u64) << 52);
+const PRODUCT_MIN: f64 = f64::from_bits(((1023 - 960) as u64) << 52);
+const PRODUCT_MAX: f64 = f64::from_bits(((1023 + 1000) as u64) << 52);
+
+/// The most components an [`Expansion`] here holds: the 192 products of [`det3`].
+const EXPANSION_LEN: usize = 192;
+
 /// A sum of doubles held exactly: non-overlapping components in increasing magnitude.
-#[derive(Debug, Default)]
-struct Expansion(Vec<f64>);
+#[derive(Debug)]
+struct Expansion {
+    parts: [f64; EXPANSION_LEN],
+    len: usize,
+}
+
+impl Default for Expansion {
+    fn default() -> Self {
+        Expansion { parts: [0.0; EXPANSION_LEN], len: 0 }
+    }
+}
 
 impl Expansion {
     /// Adds `b` exactly (Shewchuk's Grow-Expansion, zero components dropped).
     fn add(&mut self, b: f64) {
         let mut q = b;
         let mut kept = 0;
-        for k in 0..self.0.len() {
-            let (s, e) = two_sum(q, self.0[k]);
+        for k in 0..self.len {
+            let (s, e) = two_sum(q, self.parts[k]);
             q = s;
             if e != 0.0 {
-                self.0[kept] = e;
+                self.parts[kept] = e;
                 kept += 1;
             }
         }
-        self.0.truncate(kept);
+        self.len = kept;
         if q != 0.0 {
-            self.0.push(q);
+            self.parts[self.len] = q;
+            self.len += 1;
         }
+    }
+
+    /// The components, smallest first.
+    fn parts(&self) -> &[f64] {
+        &self.parts[..self.len]
     }
 
     /// The value, rounded (summed from the smallest component: the components do not
     /// overlap, so this is within an ulp or two of the exact sum).
     fn value(&self) -> f64 {
-        self.0.iter().sum()
+        self.parts().iter().sum()
     }
 
     /// The value as a double-double (summed from the smallest component).
     fn value_dd(&self) -> Dd {
-        self.0.iter().fold(Dd::default(), |s, &c| s + Dd::from(c))
+        self.parts().iter().fold(Dd::default(), |s, &c| s + Dd::from(c))
     }
 }
 
@@ -170,7 +214,7 @@ impl std::ops::Mul for Dd {
 
 impl std::ops::Div for Dd {
     type Output = Dd;
-    #[inline]
+    #[inline(always)]
     fn div(self, o: Dd) -> Dd {
         // a quotient and one correction step: q1 + (self - q1 o) / o
         let q1 = self.hi / o.hi;
@@ -178,6 +222,144 @@ impl std::ops::Div for Dd {
         let q2 = r.hi / o.hi;
         let r = r - o * Dd::from(q2);
         Dd::new(q1, q2) + Dd::from(r.hi / o.hi)
+    }
+}
+
+/// [`LANES`] double-doubles side by side: every operation is [`Dd`]'s, lane by lane, bit
+/// for bit, written so that the compiler evaluates the lanes in vector registers (the
+/// precise path of several elements at once).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DdLanes {
+    /// The leading parts.
+    pub hi: Lanes,
+    /// The trailing parts.
+    pub lo: Lanes,
+}
+
+/// `f(lane)` for every lane.
+#[inline(always)]
+fn lanes(f: impl FnMut(usize) -> f64) -> Lanes {
+    std::array::from_fn(f)
+}
+
+/// [`two_sum`] per lane.
+#[inline(always)]
+fn two_sums(a: Lanes, b: Lanes) -> (Lanes, Lanes) {
+    let s = lanes(|i| a[i] + b[i]);
+    let bv = lanes(|i| s[i] - a[i]);
+    let av = lanes(|i| s[i] - bv[i]);
+    (s, lanes(|i| (a[i] - av[i]) + (b[i] - bv[i])))
+}
+
+/// [`two_product`] per lane: Dekker's product for all lanes when every lane is in its
+/// exact range (the common case), else lane by lane.
+#[inline(always)]
+fn two_products(a: Lanes, b: Lanes) -> (Lanes, Lanes) {
+    let p = lanes(|i| a[i] * b[i]);
+    let exact = (0..LANES).all(|i| {
+        a[i].abs() <= SPLIT_MAX && b[i].abs() <= SPLIT_MAX && (PRODUCT_MIN..=PRODUCT_MAX).contains(&p[i].abs())
+    });
+    if !exact {
+        return (p, lanes(|i| two_product(a[i], b[i]).1));
+    }
+    let ca = lanes(|i| 134_217_729.0 * a[i]);
+    let ah = lanes(|i| ca[i] - (ca[i] - a[i]));
+    let al = lanes(|i| a[i] - ah[i]);
+    let cb = lanes(|i| 134_217_729.0 * b[i]);
+    let bh = lanes(|i| cb[i] - (cb[i] - b[i]));
+    let bl = lanes(|i| b[i] - bh[i]);
+    (p, lanes(|i| ((ah[i] * bh[i] - p[i]) + ah[i] * bl[i] + al[i] * bh[i]) + al[i] * bl[i]))
+}
+
+impl DdLanes {
+    /// `hi + lo` renormalised ([`Dd`]'s constructor).
+    #[inline(always)]
+    fn new(hi: Lanes, lo: Lanes) -> Self {
+        let (hi, lo) = two_sums(hi, lo);
+        DdLanes { hi, lo }
+    }
+
+    /// The lanes as [`Dd`]s.
+    pub fn get(self, i: usize) -> Dd {
+        Dd { hi: self.hi[i], lo: self.lo[i] }
+    }
+
+    /// The lanes of `f(lane)`.
+    pub fn from_fn(mut f: impl FnMut(usize) -> Dd) -> Self {
+        let d: [Dd; LANES] = std::array::from_fn(&mut f);
+        DdLanes { hi: d.map(|x| x.hi), lo: d.map(|x| x.lo) }
+    }
+
+    /// Each lane rounded to `f64`.
+    #[inline(always)]
+    pub fn to_f64(self) -> Lanes {
+        lanes(|i| self.hi[i] + self.lo[i])
+    }
+
+    /// `|self|` per lane ([`Dd::abs`]).
+    #[inline(always)]
+    pub fn abs(self) -> Self {
+        let negative: [bool; LANES] = std::array::from_fn(|i| self.hi[i] < 0.0 || (self.hi[i] == 0.0 && self.lo[i] < 0.0));
+        DdLanes {
+            hi: lanes(|i| if negative[i] { -self.hi[i] } else { self.hi[i] }),
+            lo: lanes(|i| if negative[i] { -self.lo[i] } else { self.lo[i] }),
+        }
+    }
+}
+
+impl From<f64> for DdLanes {
+    #[inline(always)]
+    fn from(x: f64) -> Self {
+        DdLanes { hi: [x; LANES], lo: [0.0; LANES] }
+    }
+}
+
+impl std::ops::Neg for DdLanes {
+    type Output = DdLanes;
+    #[inline(always)]
+    fn neg(self) -> DdLanes {
+        DdLanes { hi: lanes(|i| -self.hi[i]), lo: lanes(|i| -self.lo[i]) }
+    }
+}
+
+impl std::ops::Add for DdLanes {
+    type Output = DdLanes;
+    #[inline(always)]
+    fn add(self, o: DdLanes) -> DdLanes {
+        let (s, e) = two_sums(self.hi, o.hi);
+        let (t, f) = two_sums(self.lo, o.lo);
+        let (s, e) = two_sums(s, lanes(|i| e[i] + t[i]));
+        DdLanes::new(s, lanes(|i| e[i] + f[i]))
+    }
+}
+
+impl std::ops::Sub for DdLanes {
+    type Output = DdLanes;
+    #[inline(always)]
+    fn sub(self, o: DdLanes) -> DdLanes {
+        self + -o
+    }
+}
+
+impl std::ops::Mul for DdLanes {
+    type Output = DdLanes;
+    #[inline(always)]
+    fn mul(self, o: DdLanes) -> DdLanes {
+        let (p, e) = two_products(self.hi, o.hi);
+        DdLanes::new(p, lanes(|i| e[i] + (self.hi[i] * o.lo[i] + self.lo[i] * o.hi[i])))
+    }
+}
+
+impl std::ops::Div for DdLanes {
+    type Output = DdLanes;
+    #[inline(always)]
+    fn div(self, o: DdLanes) -> DdLanes {
+        let of = |q: Lanes| DdLanes { hi: q, lo: [0.0; LANES] };
+        let q1 = lanes(|i| self.hi[i] / o.hi[i]);
+        let r = self - o * of(q1);
+        let q2 = lanes(|i| r.hi[i] / o.hi[i]);
+        let r = r - o * of(q2);
+        DdLanes::new(q1, q2) + of(lanes(|i| r.hi[i] / o.hi[i]))
     }
 }
 
@@ -281,6 +463,18 @@ mod tests {
         let (p, e) = two_product(1.0 + f64::EPSILON, 1.0 - f64::EPSILON);
         assert_eq!(p, 1.0);
         assert_eq!(e, -f64::EPSILON * f64::EPSILON);
+        // Dekker's product and the fused multiply-add agree bit for bit, splitting or not
+        let mut state = 3u64;
+        for _ in 0..100_000 {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let exponent = |k: u64| ((k % 2000) as i32 - 1000) as f64;
+            let (a, b) = (
+                f64::from_bits(state >> 12 | 0x3ff0_0000_0000_0000) * exponent(state >> 7).exp2(),
+                -f64::from_bits(state << 12 >> 12 | 0x3ff0_0000_0000_0000) * exponent(state >> 23).exp2(),
+            );
+            let (p, e) = two_product(a, b);
+            assert_eq!((p.to_bits(), e.to_bits()), ((a * b).to_bits(), a.mul_add(b, -(a * b)).to_bits()), "{a} {b}");
+        }
     }
 
     #[test]
@@ -315,6 +509,37 @@ mod tests {
         let x = [[o, o, 0.0], [o + 1.0, o, 0.0], [o, o + 2.0, 0.0], [o + 0.25, o + 0.5, 2f64.powi(-60)]];
         assert_eq!(det3_dd(x, 1.0).to_f64(), 2.0 * 2f64.powi(-60));
         assert_eq!(exact_edges(x, 0.5)[2][2].to_f64(), 2f64.powi(-61));
+    }
+
+    #[test]
+    fn lanes_of_double_doubles_are_double_doubles_bit_for_bit() {
+        let mut state = 11u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let x = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.3;
+            let scale = ((state % 13) as f64 * 7.0 - 40.0).exp2();
+            Dd::from(x * scale) + Dd::from(x * scale * 1e-17)
+        };
+        for round in 0..200 {
+            let a: [Dd; LANES] = std::array::from_fn(|_| next());
+            let mut b: [Dd; LANES] = std::array::from_fn(|_| next());
+            if round % 7 == 0 {
+                b[3] = Dd::from(1e-300); // a lane outside Dekker's range
+            }
+            let (la, lb) = (DdLanes::from_fn(|i| a[i]), DdLanes::from_fn(|i| b[i]));
+            for (lanes, scalar) in [
+                (la + lb, std::array::from_fn::<Dd, LANES, _>(|i| a[i] + b[i])),
+                (la - lb, std::array::from_fn(|i| a[i] - b[i])),
+                (la * lb, std::array::from_fn(|i| a[i] * b[i])),
+                (la / lb, std::array::from_fn(|i| a[i] / b[i])),
+                (-la.abs(), std::array::from_fn(|i| -a[i].abs())),
+            ] {
+                for i in 0..LANES {
+                    let (x, y) = (lanes.get(i), scalar[i]);
+                    assert_eq!((x.hi.to_bits(), x.lo.to_bits()), (y.hi.to_bits(), y.lo.to_bits()), "{round} {i}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -20,7 +20,7 @@ mod evaluate;
 mod simplex;
 
 pub(crate) use evaluate::{Element, Fault};
-pub use evaluate::ACCURACY;
+pub use evaluate::{Request, ACCURACY};
 pub use frame::{local_tet, local_tri, LocalTet, LocalTri};
 pub(crate) use simplex::edge_index;
 pub use simplex::{Simplex, Tet, Tri, Values};

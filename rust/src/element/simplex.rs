@@ -5,7 +5,9 @@
 //! implementations below only say how many corners and which edges an element has and
 //! which kernels of [`super::tet`] and [`super::tri`] compute its contributions.
 
+use super::evaluate::{tets_at_once, tets_precise_at_once, Request};
 use super::frame::{local_tet, local_tri, LocalTet, LocalTri};
+use super::tet::batch::LANES;
 use super::tet::Placement;
 use super::{tet, tri};
 use std::fmt::Debug;
@@ -75,6 +77,34 @@ pub trait Simplex: Copy + Debug + Default + Send + Sync + 'static {
         weights: Option<&Self::CornerValues>,
         placement: Placement,
     ) -> Option<(Self::EdgeValues, Self::CornerValues)>;
+    /// `request` on up to [`LANES`] elements `cells` of `points` (`dim` columns, no vertex
+    /// weights, no boundary fix) at once, by vectorised `f64` kernels: which of them it
+    /// computed (into `w[k]` / `m[k]`), bit for bit as the one-element path would; the
+    /// others take that path. None of them by default.
+    fn at_once(
+        points: &[f64],
+        dim: usize,
+        cells: &[Self::Cell],
+        request: Request,
+        w: &mut [Self::EdgeValues],
+        m: &mut [Self::CornerValues],
+    ) -> [bool; LANES] {
+        let _ = (points, dim, cells, request, w, m);
+        [false; LANES]
+    }
+    /// [`Simplex::at_once`] for the elements of the precise path of the accuracy rule,
+    /// computed together in extended precision; none of them by default.
+    fn precise_at_once(
+        points: &[f64],
+        dim: usize,
+        cells: &[Self::Cell],
+        request: Request,
+        w: &mut [Self::EdgeValues],
+        m: &mut [Self::CornerValues],
+    ) -> [bool; LANES] {
+        let _ = (points, dim, cells, request, w, m);
+        [false; LANES]
+    }
 }
 
 /// Tetrahedra (in R^3 or immersed in R^d, d > 3).
@@ -146,6 +176,20 @@ impl Simplex for Tet {
             _ => tet::power_dual(l, weights, placement),
         };
         (d.weights, d.cell_volumes)
+    }
+
+    fn at_once(points: &[f64], dim: usize, cells: &[[u32; 4]], request: Request, w: &mut [[f64; 6]], m: &mut [[f64; 4]]) -> [bool; LANES] {
+        if dim != 3 {
+            return [false; LANES];
+        }
+        tets_at_once(points, cells, request, w, m)
+    }
+
+    fn precise_at_once(points: &[f64], dim: usize, cells: &[[u32; 4]], request: Request, w: &mut [[f64; 6]], m: &mut [[f64; 4]]) -> [bool; LANES] {
+        if dim != 3 {
+            return [false; LANES];
+        }
+        tets_precise_at_once(points, cells, request, w, m)
     }
 
     fn dual_precise(corners: &[&[f64]], l: &LocalTet, weights: Option<&[f64; 4]>, placement: Placement) -> Option<([f64; 6], [f64; 4])> {

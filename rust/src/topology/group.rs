@@ -4,6 +4,7 @@
 use crate::error::Result;
 use crate::options::Options;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 /// Items grouped by key: group `g` owns `items[offsets[g]..offsets[g+1]]`.
 #[derive(Debug, Clone, PartialEq)]
@@ -97,6 +98,63 @@ pub(crate) fn group_by<T: Copy + Default + Send + Sync>(
     Ok((offsets, values))
 }
 
+/// [`group_by`] for `u32` values, without a buffer of records: each worker counts the
+/// groups of its contiguous part of the records, then places its records (each evaluated
+/// again) from the positions those counts give, so that every group keeps record order.
+/// The result is [`group_by`]'s, for any thread count; the only memory besides the output
+/// is one count per group and worker. `count` must be below `2^32`.
+pub(crate) fn group_u32(
+    n: usize,
+    count: usize,
+    record: impl Fn(usize) -> (u32, u32) + Sync,
+    opts: &Options,
+) -> Result<(Vec<usize>, Vec<u32>)> {
+    assert!(count <= u32::MAX as usize, "record positions are u32");
+    let parts = rayon::current_num_threads().clamp(1, count.div_ceil(RECORD_CHUNK).max(1));
+    let bounds: Vec<usize> = (0..=parts).map(|p| p * count / parts).collect();
+    let width = n.max(1);
+    // per part, the records of every group
+    let mut counts = vec![0u32; parts * width];
+    counts.par_chunks_mut(width).enumerate().try_for_each(|(p, counts)| {
+        for (i, r) in (bounds[p]..bounds[p + 1]).enumerate() {
+            if i % RECORD_CHUNK == 0 {
+                opts.cancelled()?;
+            }
+            counts[record(r).0 as usize] += 1;
+        }
+        Ok::<(), crate::Error>(())
+    })?;
+    // the group offsets, and in place of each count, where that part's records of the
+    // group start
+    let mut offsets = Vec::with_capacity(n + 1);
+    offsets.push(0);
+    let mut total = 0usize;
+    for g in 0..n {
+        for p in 0..parts {
+            let c = counts[p * width + g];
+            counts[p * width + g] = total as u32;
+            total += c as usize;
+        }
+        offsets.push(total);
+    }
+    opts.cancelled()?;
+    let values: Vec<AtomicU32> = vec![0u32; count].into_iter().map(AtomicU32::new).collect();
+    counts.par_chunks_mut(width).enumerate().try_for_each(|(p, cursor)| {
+        for (i, r) in (bounds[p]..bounds[p + 1]).enumerate() {
+            if i % RECORD_CHUNK == 0 {
+                opts.cancelled()?;
+            }
+            let (g, value) = record(r);
+            let slot = &mut cursor[g as usize];
+            values[*slot as usize].store(value, Ordering::Relaxed);
+            *slot += 1;
+        }
+        Ok::<(), crate::Error>(())
+    })?;
+    // (collected in place: an AtomicU32 is a u32)
+    Ok((offsets, values.into_iter().map(AtomicU32::into_inner).collect()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,6 +184,12 @@ mod tests {
             for g in 0..n {
                 assert_eq!(offsets[g + 1] - offsets[g], expected.iter().filter(|e| e.0 as usize == g).count());
             }
+            let (offsets_u32, values_u32) = crate::threads::run(Some(threads), || {
+                group_u32(n, count, |r| (key(r), r as u32), &Options::default())
+            })
+            .unwrap()
+            .unwrap();
+            assert_eq!((offsets_u32, values_u32), (offsets, values));
         }
     }
 }

@@ -15,7 +15,7 @@ use glam::DVec3;
 
 /// Below this `|n|^2` (a face's normal in the normalised frame) the direct formulas can
 /// underflow: `2^-600`, faces smaller than ~1e-90 of the largest edge squared.
-const SMALL: f64 = f64::from_bits(((1023 - 600) as u64) << 52);
+pub(crate) const SMALL: f64 = f64::from_bits(((1023 - 600) as u64) << 52);
 
 /// Whether the frame has a face small enough for the direct formulas to underflow.
 pub(crate) fn is_extreme(f: &Frame) -> bool {

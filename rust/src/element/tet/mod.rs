@@ -5,6 +5,7 @@
 //! Sign convention (paper Eq. 1): a weight `w_ij` is the off-diagonal `L[i, j]`; positive on
 //! well-shaped tets.
 
+pub mod batch;
 mod careful;
 pub mod derivatives;
 pub(crate) mod dual;
@@ -15,7 +16,9 @@ mod quality;
 
 pub use dual::{dual, Dual};
 pub use mass::barycentric_mass;
-pub use power::{power_dual, power_dual_precise, Placement, Real};
+pub use power::{power_dual, power_dual_precise, Field, Placement, Real};
+pub(crate) use power::circumcentric_dual_precise_lanes;
+pub(crate) use primal::primal_weights_precise_lanes;
 pub use primal::{primal_weights, primal_weights_precise};
 pub use quality::{inside_circumsphere, tet_quality, TetQuality, DELAUNAY_RTOL};
 

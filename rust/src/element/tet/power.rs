@@ -34,23 +34,45 @@
 //! the squared edges) lose nothing. For the shapes where `f64` cannot serve (see the
 //! accuracy rule of [`crate::element`]) the same code runs in [`Dd`] from the exact edges.
 
+use super::batch::{Lanes, LANES};
 use super::{Dual, Frame, EDGES, FACES, OPPOSITE};
-use crate::element::exact::{two_sum, Dd};
+use crate::element::exact::{two_sum, Dd, DdLanes};
 use crate::element::frame::{precise_tet, LocalTet};
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-/// The arithmetic the kernel is written in: `f64`, or [`Dd`] for the precise path.
-pub trait Real:
+/// The arithmetic of the closed forms: `f64`, [`Dd`] for the precise path, or [`DdLanes`]
+/// for several precise elements at once.
+pub trait Field:
     Copy + From<f64> + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
 {
+    /// `self` where `det` rounds to a positive `f64`, `-self` elsewhere (per lane).
+    fn oriented(self, det: Self) -> Self;
+}
+
+/// A [`Field`] of single numbers, which can be rounded to `f64` (and compared).
+pub trait Real: Field {
     /// The value rounded to `f64`.
     fn to_f64(self) -> f64;
+}
+
+impl Field for f64 {
+    #[inline]
+    fn oriented(self, det: f64) -> f64 {
+        if det > 0.0 { self } else { -self }
+    }
 }
 
 impl Real for f64 {
     #[inline]
     fn to_f64(self) -> f64 {
         self
+    }
+}
+
+impl Field for Dd {
+    #[inline]
+    fn oriented(self, det: Dd) -> Dd {
+        if det.to_f64() > 0.0 { self } else { -self }
     }
 }
 
@@ -61,20 +83,32 @@ impl Real for Dd {
     }
 }
 
+impl Field for DdLanes {
+    #[inline(always)]
+    fn oriented(self, det: DdLanes) -> DdLanes {
+        let positive = det.to_f64().map(|d| d > 0.0);
+        let (neg, hi, lo) = (-self, self.hi, self.lo);
+        DdLanes {
+            hi: std::array::from_fn(|i| if positive[i] { hi[i] } else { neg.hi[i] }),
+            lo: std::array::from_fn(|i| if positive[i] { lo[i] } else { neg.lo[i] }),
+        }
+    }
+}
+
 pub(crate) type V3<R> = [R; 3];
 
-#[inline]
-pub(crate) fn sub<R: Real>(a: V3<R>, b: V3<R>) -> V3<R> {
+#[inline(always)]
+pub(crate) fn sub<R: Field>(a: V3<R>, b: V3<R>) -> V3<R> {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-#[inline]
-pub(crate) fn dot<R: Real>(a: V3<R>, b: V3<R>) -> R {
+#[inline(always)]
+pub(crate) fn dot<R: Field>(a: V3<R>, b: V3<R>) -> R {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-#[inline]
-pub(crate) fn cross<R: Real>(a: V3<R>, b: V3<R>) -> V3<R> {
+#[inline(always)]
+pub(crate) fn cross<R: Field>(a: V3<R>, b: V3<R>) -> V3<R> {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
@@ -103,14 +137,13 @@ struct Vertices<R> {
     tet: [R; 4],
 }
 
-/// The dual of a tet with corners `x` (`x[0] = 0`, scaled frame), determinant `det`,
-/// vertex weights `w` relative to corner 0 (frame units), vertices placed by `placement`.
-fn dual_of<R: Real>(x: [V3<R>; 4], det: R, w: [R; 4], placement: Placement) -> ([R; 6], [R; 4]) {
+/// The dual vertices of a tet with corners `x` (`x[0] = 0`, scaled frame), determinant
+/// `det`, vertex weights `w` relative to corner 0 (frame units), at the power centres; with
+/// the squared edge lengths and `|det|`.
+#[inline(always)]
+fn centres<R: Field>(x: [V3<R>; 4], det: R, w: [R; 4]) -> (Vertices<R>, [R; 6], R) {
     let zero = R::from(0.0);
-    let (half, quarter, third, sixth) = (R::from(0.5), R::from(0.25), R::from(1.0 / 3.0), R::from(1.0 / 6.0));
-    let positive = det.to_f64() > 0.0;
-    let abs_det = if positive { det } else { -det };
-    let oriented = |v: R| if positive { v } else { -v };
+    let abs_det = det.oriented(det);
     let n = [cross(sub(x[3], x[1]), sub(x[2], x[1])), cross(x[2], x[3]), cross(x[3], x[1]), cross(x[1], x[2])];
     let len2 = EDGES.map(|(a, b)| {
         let d = sub(x[b], x[a]);
@@ -126,7 +159,7 @@ fn dual_of<R: Real>(x: [V3<R>; 4], det: R, w: [R; 4], placement: Placement) -> (
             (len2[e] + w[a] - w[b]) / (R::from(2.0) * len2[e])
         }),
         face: [[zero; 4]; 4],
-        tet: std::array::from_fn(|l| oriented(dot(n[l], sub(c, x[FACES[l][0]])))),
+        tet: std::array::from_fn(|l| dot(n[l], sub(c, x[FACES[l][0]])).oriented(det)),
     };
     // the face centres, from the edge and the corner opposite it in each face
     for (e, (&(a, b), &(k, l))) in EDGES.iter().zip(OPPOSITE.iter()).enumerate() {
@@ -138,6 +171,13 @@ fn dual_of<R: Real>(x: [V3<R>; 4], det: R, w: [R; 4], placement: Placement) -> (
             v.face[q][p] = len2[e] * big_d / (R::from(2.0) * dot(n[q], n[q]));
         }
     }
+    (v, len2, abs_det)
+}
+
+/// Moves the dual vertices `v` of a tet with `|det| = abs_det` by `placement`.
+fn place<R: Real>(v: &mut Vertices<R>, placement: Placement, abs_det: R) {
+    let zero = R::from(0.0);
+    let (half, quarter, third) = (R::from(0.5), R::from(0.25), R::from(1.0 / 3.0));
     let outside = |coords: &[R]| coords.iter().any(|b| b.to_f64() <= 0.0);
     let most_negative = |coords: &[R; 4], skip: usize| {
         (0..4).filter(|&i| i != skip).min_by(|&i, &j| coords[i].to_f64().total_cmp(&coords[j].to_f64())).expect("3 corners")
@@ -167,6 +207,14 @@ fn dual_of<R: Real>(x: [V3<R>; 4], det: R, w: [R; 4], placement: Placement) -> (
             }
         }
     }
+}
+
+/// The edge weights and cell volumes of the dual with vertices `v` (squared edge lengths
+/// `len2`), in frame units.
+#[inline(always)]
+fn pieces<R: Field>(v: &Vertices<R>, len2: [R; 6]) -> ([R; 6], [R; 4]) {
+    let zero = R::from(0.0);
+    let (half, sixth) = (R::from(0.5), R::from(1.0 / 6.0));
     let mut weights = [zero; 6];
     let mut cells = [zero; 4];
     for (e, (&(a, b), &(k, l))) in EDGES.iter().zip(OPPOSITE.iter()).enumerate() {
@@ -177,6 +225,35 @@ fn dual_of<R: Real>(x: [V3<R>; 4], det: R, w: [R; 4], placement: Placement) -> (
         cells[b] = cells[b] + (R::from(1.0) - v.edge[e]) * area * sixth;
     }
     (weights, cells)
+}
+
+/// The dual of a tet with corners `x` (`x[0] = 0`, scaled frame), determinant `det`,
+/// vertex weights `w` relative to corner 0 (frame units), vertices placed by `placement`.
+fn dual_of<R: Real>(x: [V3<R>; 4], det: R, w: [R; 4], placement: Placement) -> ([R; 6], [R; 4]) {
+    let (mut v, len2, abs_det) = centres(x, det, w);
+    place(&mut v, placement, abs_det);
+    pieces(&v, len2)
+}
+
+/// [`power_dual_precise`] of [`LANES`] tets at once without vertex weights, at the
+/// circumcentres: `corners[i]` and `det[i]` the precise frame of lane `i`
+/// ([`precise_tet`]), `scale[i]` its scale. Bit for bit the one-tet function.
+pub(crate) fn circumcentric_dual_precise_lanes(corners: &[[[Dd; 3]; 4]; LANES], det: [Dd; LANES], scale: Lanes) -> ([Lanes; 6], [Lanes; 4]) {
+    let x: [V3<DdLanes>; 4] = std::array::from_fn(|k| std::array::from_fn(|a| DdLanes::from_fn(|i| corners[i][k][a])));
+    let det = DdLanes::from_fn(|i| det[i]);
+    let (v, len2, _) = centres(x, det, [DdLanes::from(0.0); 4]);
+    let (w, m) = pieces(&v, len2);
+    let s = scale;
+    (
+        w.map(|v| {
+            let v = v.to_f64();
+            std::array::from_fn(|i| v[i] * s[i])
+        }),
+        m.map(|v| {
+            let v = v.to_f64();
+            std::array::from_fn(|i| v[i] * s[i] * s[i] * s[i])
+        }),
+    )
 }
 
 /// The dual of one tet with vertex weights `weights` (the user's, at its four corners, in

@@ -2,7 +2,8 @@
 
 use super::power::{cross, dot, sub};
 use super::{Frame, EDGES};
-use crate::element::exact::Dd;
+use super::batch::{Lanes, LANES};
+use crate::element::exact::{Dd, DdLanes};
 use crate::element::frame::{precise_tet, LocalTet};
 
 /// The six primal weights of one tet: `w_ab = |x_k - x_l| cot(theta_kl) / 6` for edge `ab`
@@ -37,6 +38,17 @@ pub fn primal_weights_precise(x: [&[f64]; 4], t: &LocalTet) -> [f64; 6] {
     let (p, det) = precise_tet(x, t.scale);
     let n = [cross(sub(p[3], p[1]), sub(p[2], p[1])), cross(p[2], p[3]), cross(p[3], p[1]), cross(p[1], p[2])];
     let k = Dd::from(-t.scale) / (Dd::from(6.0) * det.abs());
+    EDGES.map(|(a, b)| (dot(n[a], n[b]) * k).to_f64())
+}
+
+/// [`primal_weights_precise`] of [`LANES`] tets at once: `corners[i]` and `det[i]` the
+/// precise frame of lane `i` ([`precise_tet`]), `scale[i]` its scale. Bit for bit the
+/// one-tet function.
+pub(crate) fn primal_weights_precise_lanes(corners: &[[[Dd; 3]; 4]; LANES], det: [Dd; LANES], scale: Lanes) -> [Lanes; 6] {
+    let p: [[DdLanes; 3]; 4] = std::array::from_fn(|k| std::array::from_fn(|a| DdLanes::from_fn(|i| corners[i][k][a])));
+    let det = DdLanes::from_fn(|i| det[i]);
+    let n = [cross(sub(p[3], p[1]), sub(p[2], p[1])), cross(p[2], p[3]), cross(p[3], p[1]), cross(p[1], p[2])];
+    let k = DdLanes { hi: scale.map(|s| -s), lo: [0.0; LANES] } / (DdLanes::from(6.0) * det.abs());
     EDGES.map(|(a, b)| (dot(n[a], n[b]) * k).to_f64())
 }
 
