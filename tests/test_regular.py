@@ -292,3 +292,35 @@ def test_every_corpus_mesh_is_decided_and_checked(name, rng):
         assert certificate_holds(V, T, r.certificate_faces, r.certificate_multipliers, rng)
     else:
         assert r.certificate_kind == "folded" and r.n_folded == len(r.certificate_faces)
+
+
+@pytest.mark.parametrize("case", ["regular", "not regular", "undecided"])
+def test_the_weights_of_every_status_go_into_every_entry_point(case):
+    # issue 22: regular_weights' weights assemble wherever the plain dual does, hull
+    # slivers of a lifted regular triangulation included, with degenerate="raise"
+    if case == "not regular":
+        V, T = mother(0.0)
+        r = regular_weights(V, T)
+    else:
+        V, T, _ = weighted_points(5, n=80, scale=0.05)
+        r = regular_weights(V, T, max_iterations=1 if case == "undecided" else 20000)
+    assert r.status == case
+    w = r.weights
+    f = np.sin(V[:, 0]) + V[:, 1] ** 2
+    L = tetlap.laplacian(V, T, "dual", weights=w)
+    M = tetlap.mass(V, T, "circumcentric", weights=w)
+    L2, M2 = tetlap.operators(V, T, "dual", "circumcentric", weights=w)
+    mesh = tetlap.Mesh(V, T, weights=w)
+    np.testing.assert_array_equal((L2 != L).nnz, 0)
+    np.testing.assert_array_equal((M2 != M).nnz, 0)
+    assert (mesh.laplacian("dual") != L).nnz == 0
+    E, grad = tetlap.derivatives.dirichlet_energy(V, T, f, "dual", weights=w)
+    assert np.isfinite(E) and np.isfinite(grad).all()
+    assert np.isclose(E, -f @ (L @ f), rtol=1e-10)
+    J = tetlap.derivatives.vjp(V, T, "dual", "circumcentric", weights=w,
+                               dL=L, dM=np.ones(len(V)))
+    assert np.isfinite(J.dV).all() and np.isfinite(J.dweights).all()
+    s = tetlap.info.regular_summary(V, T, r)
+    assert s["status"] == case and s["negative_interior_weights"]["weighted_dual"] >= 0
+    if case == "not regular":
+        np.testing.assert_array_equal(w, 0)
