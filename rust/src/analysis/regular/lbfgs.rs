@@ -44,7 +44,7 @@ pub trait Objective {
 pub enum Stop {
     /// The objective said it was done.
     Done,
-    /// The objective fell by less than [`STALL_DROP`] over [`STALL_WINDOW`] iterations, or
+    /// The objective fell by less than `STALL_DROP` over `STALL_WINDOW` iterations, or
     /// no descent step was found (a minimum, to rounding).
     Stalled,
     /// The iteration budget ran out.
