@@ -97,15 +97,15 @@ fn stop_name(stop: Stop) -> &'static str {
 /// (c, 5) int64, `g0` (c,), `coefficients` (c, 5), `face` (c,) int64; `folded` (f,) bool;
 /// `flat` (k,) int64 (faces with a tet flat to rounding).
 #[pyfunction]
-#[pyo3(signature = (points, cells, *, options=Default::default()))]
+#[pyo3(signature = (points, cells, *, options=None))]
 pub fn regular_conditions<'py>(
     py: Python<'py>,
     points: PyReadonlyArray2<'py, f64>,
     cells: PyReadonlyArray2<'py, i64>,
-    options: OptionsArg,
+    options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let input = Input::new(py, &points, &cells, None)?;
-    let (faces, c) = compute(py, options.0, move |opts| {
+    let (faces, c) = compute(py, OptionsArg::options(options), move |opts| {
         let mesh = input.tets("regular weights")?;
         let faces = tetlap::faces::<Tet>(mesh.cells(), mesh.n_vertices(), opts)?;
         let c = regular::conditions(&mesh, &faces.interior, opts)?;
@@ -130,7 +130,7 @@ pub fn regular_conditions<'py>(
 /// One search ([`regular::search`]) from `u` (n,): `(u, stop, iterations, short_rows
 /// int64, short_y)`, `stop` one of "done", "stalled", "iterations", "deadline".
 #[pyfunction]
-#[pyo3(signature = (rows, targets, u, iterations, *, seconds=None, options=Default::default()))]
+#[pyo3(signature = (rows, targets, u, iterations, *, seconds=None, options=None))]
 pub fn regular_search<'py>(
     py: Python<'py>,
     rows: RowsArg,
@@ -138,10 +138,10 @@ pub fn regular_search<'py>(
     u: PyReadonlyArray1<'py, f64>,
     iterations: usize,
     seconds: Option<f64>,
-    options: OptionsArg,
+    options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let mut u = contiguous(py, &u)?.to_vec();
-    let (u, out) = compute(py, options.0, move |opts| {
+    let (u, out) = compute(py, OptionsArg::options(options), move |opts| {
         let mut budget = budget(iterations, seconds);
         let out = regular::search(rows.rows(), &targets.targets(), &mut u, &mut budget, opts)?;
         Ok((u, out))
@@ -162,7 +162,7 @@ pub fn regular_search<'py>(
 /// The mass step ([`regular::keep_masses`]) from `u` (n,), with `masses = (plain (n,),
 /// floor, scale (n,))`: `(u, {"rounds", "iterations", "kept", "lost", "deficit"})`.
 #[pyfunction]
-#[pyo3(signature = (points, cells, rows, targets, masses, u, iterations, *, seconds=None, options=Default::default()))]
+#[pyo3(signature = (points, cells, rows, targets, masses, u, iterations, *, seconds=None, options=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn regular_masses<'py>(
     py: Python<'py>,
@@ -174,12 +174,12 @@ pub fn regular_masses<'py>(
     u: PyReadonlyArray1<'py, f64>,
     iterations: usize,
     seconds: Option<f64>,
-    options: OptionsArg,
+    options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let input = Input::new(py, &points, &cells, None)?;
     let (plain, floor, scale) = (contiguous(py, &masses.0)?.to_vec(), masses.1, contiguous(py, &masses.2)?.to_vec());
     let mut u = contiguous(py, &u)?.to_vec();
-    let (u, out) = compute(py, options.0, move |opts| {
+    let (u, out) = compute(py, OptionsArg::options(options), move |opts| {
         let mesh = input.tets("regular weights")?;
         let mut budget = budget(iterations, seconds);
         let targets_mass = MassTargets { plain: &plain, floor, scale: &scale };
