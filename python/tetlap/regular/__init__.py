@@ -178,8 +178,10 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
         decided. The same input gives the same result on any machine and under any load.
     time_limit : float or None, an optional wall-clock limit in seconds for the whole call,
         set-up included (None, the default: none). An explicit opt-in: with it the result
-        depends on the machine's speed and load. The final report (two assemblies of the
-        dual and the checks) runs after it.
+        depends on the machine's speed and load. The set-up (the face conditions and the
+        check of ``w = 0``, about ten assemblies' time) runs before the search can stop,
+        and the check of the weights and the final report (two assemblies of the dual and
+        their checks) after it.
     threads : int or None, the core's worker threads (None: all cores). The result does
         not depend on it.
 
@@ -319,7 +321,8 @@ def _find(V, T, cond: Conditions, settings: Settings, budget: Budget, d: Decisio
     if d.certificate is not None:       # not regular: the plain dual is what is left
         return
     d.w = u * scale
-    d.final = verify.check_margins(V, T, cond.interior, d.w)
+    # w = 0 (a search stopped before its first step): the check of w = 0 is done already
+    d.final = d.plain if not d.w.any() else verify.check_margins(V, T, cond.interior, d.w)
     if d.outcome.status != "reached" and len(d.final.failed) > len(d.plain.failed):
         d.notes.append("the search's weights leave more faces not strictly regular than "
                        "w = 0: w = 0")
