@@ -7,8 +7,11 @@ checks that it exists before running the suite.
 
 from __future__ import annotations
 
+import json
 import os
 import pathlib
+import subprocess
+import sys
 
 # Dense eigenvalues (the NSD checks) on one BLAS thread: tetlap's own threads and a
 # shared machine make OpenBLAS's threads spin against each other (2000 x 2000 eigvalsh:
@@ -94,3 +97,25 @@ def real_mesh(request):
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+def run_tetlap(*args, **kwargs) -> subprocess.CompletedProcess:
+    """``python -m tetlap ARGS`` in a child process, text output captured (the CLI tests)."""
+    return subprocess.run([sys.executable, "-m", "tetlap", *args], capture_output=True,
+                          text=True, timeout=600, **kwargs)
+
+
+def strict_json(text: str):
+    """Parse JSON as the standard says: NaN and Infinity are not JSON."""
+    return json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} is not valid JSON"))
+
+
+@pytest.fixture
+def cube_file(tmp_path):
+    """``(path, V, T)``: a jittered ``cube(3)`` written as ``cube.vtu`` (needs meshio)."""
+    pytest.importorskip("meshio")
+    V, T = tetlap.meshes.cube(3, jitter=0.1)
+    path = tmp_path / "cube.vtu"
+    tetlap.io.write(path, V, T)
+    return path, V, T
+

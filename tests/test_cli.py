@@ -21,10 +21,9 @@ import tetlap
 from tetlap import cli, experiments
 from tetlap.cli import _output
 
+from conftest import run_tetlap as run
 
-def run(*args, **kwargs):
-    return subprocess.run([sys.executable, "-m", "tetlap", *args], capture_output=True,
-                          text=True, timeout=600, **kwargs)
+
 
 
 def subparsers(parser):

@@ -3,8 +3,6 @@ and its errors."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -15,19 +13,11 @@ import tetlap.io
 from tetlap import cli
 from tetlap.cli import assemble
 
-
-def run(*args):
-    return subprocess.run([sys.executable, "-m", "tetlap", *args], capture_output=True,
-                          text=True, timeout=600)
+from conftest import run_tetlap as run
 
 
-@pytest.fixture
-def cube_file(tmp_path):
-    pytest.importorskip("meshio")
-    V, T = tetlap.meshes.cube(3, jitter=0.1)
-    path = tmp_path / "cube.vtu"
-    tetlap.io.write(path, V, T)
-    return path, V, T
+
+
 
 
 def test_assemble_writes_load_npz_files(tmp_path):

@@ -3,8 +3,6 @@ without libigl. The cases and records are tested in test_benchmark.py."""
 
 from __future__ import annotations
 
-import json
-import subprocess
 import sys
 
 import pytest
@@ -14,14 +12,10 @@ import tetlap.io
 from tetlap import benchmark, cli
 from tetlap.cli import _output
 
-
-def run(*args):
-    return subprocess.run([sys.executable, "-m", "tetlap", *args], capture_output=True,
-                          text=True, timeout=600)
+from conftest import run_tetlap as run, strict_json
 
 
-def strict_json(text):
-    return json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} is not valid JSON"))
+
 
 
 def test_bench_quick_smoke():

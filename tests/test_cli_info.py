@@ -5,11 +5,9 @@ test_info.py."""
 from __future__ import annotations
 
 import json
-import subprocess
 import sys
 import warnings
 
-import numpy as np
 import pytest
 
 import tetlap
@@ -17,24 +15,13 @@ import tetlap.io
 from tetlap import cli
 from tetlap.cli import _mesh
 
-
-def run(*args):
-    return subprocess.run([sys.executable, "-m", "tetlap", *args], capture_output=True,
-                          text=True, timeout=600)
+from conftest import run_tetlap as run, strict_json
+from test_info import check_report_of_a_delaunay_ball
 
 
-def strict_json(text):
-    """Parse JSON as the standard says: NaN and Infinity are not JSON."""
-    return json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} is not valid JSON"))
 
 
-@pytest.fixture
-def cube_file(tmp_path):
-    pytest.importorskip("meshio")
-    V, T = tetlap.meshes.cube(3, jitter=0.1)
-    path = tmp_path / "cube.vtu"
-    tetlap.io.write(path, V, T)
-    return path, V, T
+
 
 
 @pytest.fixture
@@ -60,15 +47,7 @@ def test_info_json_on_the_built_in_mesh():
                     "min_weight", "negative_fraction", "negative_fraction_interior", "finite",
                     "mass_total", "mesh_volume"):
             assert key in result[kind]
-    V, T = tetlap.meshes.ball(2000, seed=0)
-    assert result["mesh"]["n_tets"] == len(T)
-    assert result["mesh"]["non_delaunay_face_fraction"] == 0.0  # a Delaunay mesh
-    assert result["primal"]["nsd"] is True
-    assert result["dual"]["negative_fraction_interior"] == 0.0
-    edges, w = tetlap.edge_weights(V, T, "primal")
-    assert result["primal"]["min_weight"] == pytest.approx(w.min(), rel=1e-12)
-    for kind in ("primal", "dual"):
-        assert result[kind]["mass_total"] == pytest.approx(result[kind]["mesh_volume"])
+    check_report_of_a_delaunay_ball(result, *tetlap.meshes.ball(2000, seed=0))
 
 
 def test_info_table_is_human_readable():

@@ -243,10 +243,9 @@ def test_report_against_independent_routes(name):
     assert_report(V, T, info.report(V, T, progress=False))
 
 
-def test_report_of_a_delaunay_ball():
-    """The facts of Table 1 on a Delaunay mesh, as the report states them."""
-    V, T = tetlap.meshes.ball(800, seed=0)
-    result = info.report(V, T, progress=False)
+def check_report_of_a_delaunay_ball(result, V, T):
+    """The facts of Table 1 on the Delaunay mesh ``(V, T)``, as the report ``result``
+    states them (also what ``tetlap info --json`` prints: test_cli_info)."""
     assert result["mesh"]["n_tets"] == len(T)
     assert result["mesh"]["non_delaunay_face_fraction"] == 0.0  # a Delaunay mesh
     assert result["primal"]["nsd"] is True
@@ -255,6 +254,11 @@ def test_report_of_a_delaunay_ball():
     assert result["primal"]["min_weight"] == pytest.approx(w.min(), rel=1e-12)
     for kind in ("primal", "dual"):
         assert result[kind]["mass_total"] == pytest.approx(result[kind]["mesh_volume"])
+
+
+def test_report_of_a_delaunay_ball():
+    V, T = tetlap.meshes.ball(800, seed=0)
+    check_report_of_a_delaunay_ball(info.report(V, T, progress=False), V, T)
 
 
 def test_report_of_a_non_delaunay_ball_says_indefinite():
