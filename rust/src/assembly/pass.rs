@@ -85,7 +85,7 @@ impl<S: Simplex> Elements<'_, S> {
         faults: &mut FirstFault,
     ) {
         let (points, dim, cells) = (self.mesh.points(), self.mesh.dim(), self.mesh.cells());
-        let batched = self.mesh.vertex_weights().is_none();
+        let batched = self.mesh.vertex_weights().is_none() && request.batched();
         let fixed = |t: usize| self.boundary.as_ref().is_some_and(|b| b[t]);
         // the elements no batch computed: (k, t)
         let mut left: Vec<(usize, usize)> = Vec::new();

@@ -58,6 +58,14 @@ pub struct Request {
     pub mass: Option<MassKind>,
 }
 
+impl Request {
+    /// Whether the batched kernels ([`Simplex::at_once`]) serve this request: all but the
+    /// mixed mass, whose snapped centres only the one-element path computes.
+    pub fn batched(self) -> bool {
+        self.mass != Some(MassKind::Mixed)
+    }
+}
+
 /// An element's dual: edge weights and cell volumes (each checked by whoever asks for it).
 type DualValues<S> = (<S as Simplex>::EdgeValues, <S as Simplex>::CornerValues);
 
@@ -181,7 +189,8 @@ impl<'a, S: Simplex> Element<'a, S> {
     }
 }
 
-/// [`Request`] on up to [`LANES`] tets of `points` (R^3, no vertex weights, no boundary fix)
+/// [`Request`] on up to [`LANES`] tets of `points` (R^3, no vertex weights, no boundary fix,
+/// no mixed mass: [`Request::batched`])
 /// at once, by the batched `f64` kernels ([`super::tet::batch`]): the values of every tet
 /// that the rule computes in `f64` from its float determinant and whose values are
 /// finite, in `w[k]` / `m[k]` for `cells[k]`, flagged `true`. The others (the precise and
@@ -194,9 +203,6 @@ pub(crate) fn tets_at_once(
     w: &mut [[f64; 6]],
     m: &mut [[f64; 4]],
 ) -> [bool; LANES] {
-    if request.mass == Some(MassKind::Mixed) {
-        return [false; LANES];
-    }
     let lanes = cells.len().min(LANES);
     let corners: [[Lanes; 3]; 4] = std::array::from_fn(|c| {
         std::array::from_fn(|a| std::array::from_fn(|i| if i < lanes { points[3 * cells[i][c] as usize + a] } else { 0.0 }))
@@ -220,9 +226,6 @@ pub(crate) fn tets_precise_at_once(
 ) -> [bool; LANES] {
     use super::frame::{local_tet, precise_tet};
     use super::tet::{circumcentric_dual_precise_lanes, primal_weights_precise_lanes, volume, well_shaped};
-    if request.mass == Some(MassKind::Mixed) {
-        return [false; LANES];
-    }
     let lanes = cells.len().min(LANES);
     let corner = |i: usize, c: usize| &points[3 * cells[i][c] as usize..][..3];
     let x = |i: usize| [corner(i, 0), corner(i, 1), corner(i, 2), corner(i, 3)];

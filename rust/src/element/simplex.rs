@@ -77,8 +77,9 @@ pub trait Simplex: Copy + Debug + Default + Send + Sync + 'static {
         weights: Option<&Self::CornerValues>,
         placement: Placement,
     ) -> Option<(Self::EdgeValues, Self::CornerValues)>;
-    /// `request` on up to [`LANES`] elements `cells` of `points` (`dim` columns, no vertex
-    /// weights, no boundary fix) at once, by vectorised `f64` kernels: which of them it
+    /// `request` (one that is [`Request::batched`]) on up to [`LANES`] elements `cells` of
+    /// `points` (`dim` columns, no vertex weights, no boundary fix) at once, by vectorised
+    /// `f64` kernels: which of them it
     /// computed (into `w[k]` / `m[k]`), bit for bit as the one-element path would; the
     /// others take that path. None of them by default.
     fn at_once(
