@@ -34,6 +34,7 @@ _EXPORTS = {
     ".derivatives": ("vjp", "dirichlet_energy", "mass_energy", "VJP"),
     ".regular": ("regular_weights", "RegularWeights"),
     ".mesh": ("Mesh", "UpdateInfo"),
+    ".calculus": ("gradient", "divergence"),
     ".analysis": ("check", "Report"),
     ".meshes": ("meshes",),
     ".diagnostics": ("diagnostics",),
@@ -79,5 +80,6 @@ if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, imported e
                          EmptyMeshError, IndexRangeError, InternalError, MeshFileError,
                          NonFiniteError, OptionError, RepeatedVertexError, ShapeError,
                          SolveError, TetlapError)
+    from .calculus import divergence, gradient
     from .mesh import Mesh, UpdateInfo
     from .regular import RegularWeights, regular_weights

@@ -16,7 +16,7 @@ from typing_extensions import Self
 __all__ = ["assemble", "check_options", "vjp", "Mesh", "MAX_THREADS", "DELAUNAY_RTOL",
            "MAX_GROUP", "faces", "duplicates", "edges", "quality", "non_delaunay",
            "check_operator", "negative_semidefinite", "element_certificate",
-           "regular_conditions", "regular_search", "regular_masses"]
+           "regular_conditions", "regular_search", "regular_masses", "gradients"]
 
 MAX_THREADS: int
 DELAUNAY_RTOL: float
@@ -51,6 +51,10 @@ _MassCot = tuple[Literal["diagonal", "quadratic"], _F64] | _SparseCot
 def vjp(points: _F64, cells: _Cells, laplacian: _Kind | None, mass: str | None, *,
         dl: _LapCot | None = None, dm: _MassCot | None = None, weights: _F64 | None = None,
         options: _Options = None) -> tuple[_F64, _F64 | None, float]: ...
+
+# (g, vol): barycentric-coordinate gradients (m, 4 | 3, d) and element measures (m,).
+def gradients(points: _F64, cells: _Cells, *, options: _Options = None
+              ) -> tuple[_F64, _F64]: ...
 
 @final
 class Mesh:

@@ -10,6 +10,7 @@ mod analysis;
 mod convert;
 mod derivatives;
 mod errors;
+mod gradient;
 mod mesh;
 mod options;
 mod regular;
@@ -32,6 +33,8 @@ mod _core {
     };
     #[pymodule_export]
     use crate::derivatives::vjp;
+    #[pymodule_export]
+    use crate::gradient::gradients;
     #[pymodule_export]
     use crate::regular::{regular_conditions, regular_masses, regular_search};
 

@@ -5,9 +5,11 @@
 //! * `pass`: the parallel per-element pass and its faults;
 //! * `scatter`: per-element values summed onto rows and vertices in a fixed order;
 //! * `one_shot`: the public one-shot API; `cached`: [`CachedMesh`], local updates;
+//! * `gradient`: the P1 gradients of every element ([`gradients`]);
 //! * `vjp`: derivatives of the operators with respect to the mesh.
 
 pub(crate) mod cached;
+pub(crate) mod gradient;
 pub(crate) mod one_shot;
 pub(crate) mod order;
 pub(crate) mod pass;
@@ -16,6 +18,7 @@ pub(crate) mod scatter;
 pub mod vjp;
 
 pub use cached::{CachedMesh, Update};
+pub use gradient::gradients;
 pub use one_shot::{contributions, edge_weights, laplacian, mass, operators, triplets};
 pub(crate) use pass::CHUNK;
 pub use pattern::Topology;

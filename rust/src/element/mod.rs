@@ -9,10 +9,12 @@
 //! * [`tet`]: the kernels of one tet (primal, dual, power-diagram dual, masses, quality)
 //!   and their reverse derivatives ([`tet::derivatives`]);
 //! * [`tri`]: the kernels of one triangle;
+//! * [`gradient`]: the gradients of an element's barycentric coordinates (P1 gradients);
 //! * [`Simplex`]: what the drivers need to know about an element kind ([`Tet`], [`Tri`]).
 
 pub mod exact;
 pub mod frame;
+pub mod gradient;
 pub mod tet;
 pub mod tri;
 
