@@ -35,6 +35,7 @@ _EXPORTS = {
     ".regular": ("regular_weights", "RegularWeights"),
     ".mesh": ("Mesh", "UpdateInfo"),
     ".calculus": ("gradient", "divergence"),
+    ".heat": ("HeatDistance", "heat_distance"),
     ".analysis": ("check", "Report"),
     ".meshes": ("meshes",),
     ".diagnostics": ("diagnostics",),
@@ -81,5 +82,6 @@ if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, imported e
                          NonFiniteError, OptionError, RepeatedVertexError, ShapeError,
                          SolveError, TetlapError)
     from .calculus import divergence, gradient
+    from .heat import HeatDistance, heat_distance
     from .mesh import Mesh, UpdateInfo
     from .regular import RegularWeights, regular_weights
