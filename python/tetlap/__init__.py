@@ -36,6 +36,7 @@ _EXPORTS = {
     ".mesh": ("Mesh", "UpdateInfo"),
     ".calculus": ("gradient", "divergence"),
     ".heat": ("HeatDistance", "heat_distance"),
+    ".fields": ("harmonic", "Harmonic"),
     ".analysis": ("check", "Report"),
     ".meshes": ("meshes",),
     ".diagnostics": ("diagnostics",),
@@ -82,6 +83,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, imported e
                          NonFiniteError, OptionError, RepeatedVertexError, ShapeError,
                          SolveError, TetlapError)
     from .calculus import divergence, gradient
+    from .fields import Harmonic, harmonic
     from .heat import HeatDistance, heat_distance
     from .mesh import Mesh, UpdateInfo
     from .regular import RegularWeights, regular_weights
