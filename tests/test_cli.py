@@ -48,7 +48,8 @@ def test_version_and_help():
 
 def test_one_module_per_command_each_with_its_arguments_check_and_run():
     names = [c.NAME for c in cli.COMMANDS]
-    assert names == ["info", "assemble", "bench", "experiment", "improve", "distributed-info"]
+    assert names == ["info", "assemble", "bench", "experiment", "improve", "distributed-info",
+                     "geodesic"]
     assert list(subparsers(cli.parser())) == names
     for command in cli.COMMANDS:
         assert command.__name__ == "tetlap.cli." + command.NAME.replace("-", "_")
@@ -111,9 +112,10 @@ def test_malformed_arguments_are_usage_errors(argv, message, capsys):
 #: The smallest command line of each command (a missing mesh file: reading it would be
 #: the first work).
 MINIMAL = {"info": ["missing.vtu"], "assemble": ["missing.vtu", "-o", "x"], "bench": [],
-           "experiment": ["flips"], "improve": ["missing.vtu", "-o", "x"]}
+           "experiment": ["flips"], "improve": ["missing.vtu", "-o", "x"],
+           "geodesic": ["missing.vtu", "--source", "0"]}
 #: Numeric flags for which 0 is a valid value.
-ZERO_OK = {"--margin", "--seed"}
+ZERO_OK = {"--margin", "--seed", "--source"}
 
 
 def numeric_flags():
@@ -129,7 +131,8 @@ NUMERIC = sorted(numeric_flags())
 def test_the_numeric_flags_are_known():
     assert {f"{c} {f}" for c, f, _ in NUMERIC} == {
         "info --regular-time", "bench --threads", "bench --repeat", "experiment --seed",
-        "improve --margin", "improve --iterations", "improve --step", "improve --threads"}
+        "improve --margin", "improve --iterations", "improve --step", "improve --threads",
+        "geodesic --source", "geodesic --time", "geodesic --threads"}
 
 
 @pytest.mark.parametrize("command, flag, kind", NUMERIC)

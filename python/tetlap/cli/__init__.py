@@ -13,6 +13,7 @@ its ``run(args)``; every table, report and JSON document is formatted in
     tetlap experiment NAME           the paper's experiments (CSV + PNG + summary)
     tetlap improve MESH -o OUT       move interior vertices to remove negative dual weights
     tetlap distributed-info P T      (under mpirun) global checks with PETSc, from .npy files
+    tetlap geodesic MESH --source I  heat-method distance from source vertices (--out F.vtu)
 
 A command's arguments are added to its parser on first use, so that ``tetlap --version``
 and ``tetlap --help`` import neither NumPy nor SciPy.
@@ -26,11 +27,13 @@ import sys
 from .. import __version__
 from ..errors import TetlapError
 from . import _output, assemble, bench, distributed_info, experiment, improve, info
+from . import geodesic
 
 __all__ = ["main", "parser", "COMMANDS"]
 
 #: The commands, in the order of ``tetlap --help``.
-COMMANDS = (info, assemble, bench, experiment, improve, distributed_info)
+COMMANDS = (info, assemble, bench, experiment, improve, distributed_info,
+            geodesic)
 
 
 class _CommandParser(argparse.ArgumentParser):

@@ -1,0 +1,64 @@
+"""``tetlap geodesic``: the distance written as point data and read back, the checks of
+every flag before any work, the one-line errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tetlap
+from conftest import run_tetlap
+
+
+def test_writes_the_distance_as_point_data(cube_file, tmp_path):
+    meshio = pytest.importorskip("meshio")
+    cube_file, V, T = cube_file
+    out = tmp_path / "field.vtu"
+    r = run_tetlap("geodesic", str(cube_file), "--source", "0", "--source", "3", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "written" in r.stdout and "0 vertices unreachable" in r.stdout
+    mesh = meshio.read(out)
+    d = np.asarray(mesh.point_data["distance"])
+    assert np.array_equal(mesh.points, V)
+    assert np.array_equal(d, tetlap.heat_distance(V, T, [0, 3]))
+
+
+def test_pyvista_reads_the_field(cube_file, tmp_path):
+    pv = pytest.importorskip("pyvista")
+    cube_file, V, T = cube_file
+    out = tmp_path / "field.vtu"
+    assert run_tetlap("geodesic", str(cube_file), "--source", "1", "--out", str(out),
+                      "--boundary", "average").returncode == 0
+    grid = pv.read(out)
+    assert np.allclose(grid.point_data["distance"],
+                       tetlap.heat_distance(V, T, 1, boundary="average"))
+
+
+@pytest.mark.parametrize("flags, message", [
+    (["--source", "-1"], "--source must be a non-negative integer"),
+    (["--source", "0", "--time", "0"], "--time must be a positive number"),
+    (["--source", "0", "--time", "nan"], "--time must be a positive number"),
+    (["--source", "0", "--threads", "0"], "--threads"),
+    (["--source", "0", "--laplacian", "cotan"], "--laplacian"),
+    (["--source", "0", "--out", "/nonexistent/dir/f.vtu"], "--out /nonexistent/dir/f.vtu: cannot be written"),
+    (["--source", "0", "--out", "f.txt"], "not a mesh format's extension"),
+    (["--source", "100000"], "--source: sources holds 100000"),
+])
+def test_bad_flags_are_one_line_errors_before_any_work(cube_file, flags, message, tmp_path):
+    r = run_tetlap("geodesic", str(cube_file[0]), *flags, cwd=tmp_path)
+    assert r.returncode == 2 and r.stdout == ""
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tetlap: error: ") and message in lines[0]
+    assert not (tmp_path / "f.txt").exists()
+
+
+def test_an_existing_output_is_kept_when_a_later_check_fails(cube_file, tmp_path):
+    out = tmp_path / "keep.vtu"
+    out.write_text("old")
+    r = run_tetlap("geodesic", str(cube_file[0]), "--source", "0", "--time", "-1", "--out", str(out))
+    assert r.returncode == 2 and out.read_text() == "old"
+
+
+def test_missing_source_is_a_usage_error(cube_file):
+    r = run_tetlap("geodesic", str(cube_file[0]))
+    assert r.returncode == 2 and "--source" in r.stderr
