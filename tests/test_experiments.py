@@ -110,6 +110,21 @@ def test_improve(tmp_path):
     assert shell and all(int(r["negative_after"]) < int(r["negative_before"]) for r in shell)
 
 
+@pytest.mark.slow
+def test_heat_distance(tmp_path):
+    table = rows(run("heat-distance", tmp_path))
+    for family in ("ball", "box"):
+        for source in ("centre", "boundary"):
+            errors = [float(r["error"]) for r in table if r["family"] == family
+                      and r["source"] == source and r["boundary"] == "neumann"]
+            assert len(errors) == 2 and errors[1] < errors[0] < 0.05
+
+
+def test_harmonic_built_in(tmp_path):
+    table = rows(run("harmonic", tmp_path))
+    assert table and all(r["proved"] == "True" and int(r["auto_outside"]) == 0 for r in table)
+
+
 # ---- the registry, the corpus listing, the summaries -----------------------------------
 
 
@@ -117,7 +132,7 @@ def test_the_registry_lists_each_experiment_once_with_its_runner():
     import importlib
     import inspect
 
-    assert len(set(experiments.NAMES)) == len(experiments.EXPERIMENTS) == 7
+    assert len(set(experiments.NAMES)) == len(experiments.EXPERIMENTS) == 9
     for e in experiments.EXPERIMENTS:
         run = importlib.import_module(f"tetlap.experiments.{e.module}").run
         assert ("meshes" in inspect.signature(run).parameters) == e.corpus, e.name

@@ -10,7 +10,7 @@ paper's. Figures need matplotlib (``pip install 'tetlap[experiments]'``).
 
 >>> from tetlap import experiments
 >>> experiments.NAMES[:2], experiments.CORPUS_NAMES
-(('dirichlet-shell', 'eigen-ball'), ('negative-weights', 'improve', 'regular-weights'))
+(('dirichlet-shell', 'eigen-ball'), ('negative-weights', 'improve', 'regular-weights', 'harmonic'))
 """
 
 from __future__ import annotations
@@ -50,6 +50,11 @@ EXPERIMENTS = (
                "vertex moves that remove negative dual weights (tetlap.improve)", corpus=True),
     Experiment("regular-weights", "regular_weights",
                "weights that make a mesh regular; the Sec. 9 conjecture", corpus=True),
+    Experiment("heat-distance", "heat_distance",
+               "heat-method distance against the Euclidean one on balls and boxes (issue 29)"),
+    Experiment("harmonic", "harmonic",
+               "the maximum principle of harmonic fields over a mesh corpus, against libigl",
+               corpus=True),
 )
 NAMES = tuple(e.name for e in EXPERIMENTS)
 CORPUS_NAMES = tuple(e.name for e in EXPERIMENTS if e.corpus)
