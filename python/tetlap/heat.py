@@ -190,7 +190,8 @@ class HeatDistance:
         if boundary != "neumann":
             on_boundary = _boundary_vertices(live, n)
             inner = np.flatnonzero(self._used & ~on_boundary)
-            self._A = A
+            self._diagonal = A.diagonal()
+            self._A_inner = A[inner]          # the rows of the inner vertices, for the rhs
             self._on_boundary = on_boundary
             self._heat_dirichlet = (inner, self._factor(A[inner][:, inner]) if len(inner) else None)
         # the Poisson step: one vertex pinned per component (L's null space is constants)
@@ -218,9 +219,9 @@ class HeatDistance:
             inner, factor = self._heat_dirichlet
             u = np.zeros(self.n)
             at_boundary = s[self._on_boundary[s]]
-            u[at_boundary] = 1.0 / self._A.diagonal()[at_boundary]
+            u[at_boundary] = 1.0 / self._diagonal[at_boundary]
             if factor is not None:
-                rhs = delta[inner] - self._A[inner] @ u
+                rhs = delta[inner] - self._A_inner @ u
                 u[inner] = factor.solve(rhs)
             parts.append(u)
         return sum(parts) / len(parts)
