@@ -120,6 +120,7 @@ def test_heat_distance(tmp_path):
             assert len(errors) == 2 and errors[1] < errors[0] < 0.05
 
 
+@pytest.mark.slow
 def test_harmonic_built_in(tmp_path):
     table = rows(run("harmonic", tmp_path))
     assert table and all(r["proved"] == "True" and int(r["auto_outside"]) == 0 for r in table)

@@ -184,3 +184,20 @@ def test_inputs_are_not_modified():
     copies = [a.copy() for a in (V, T, b, vals)]
     tetlap.harmonic(V, T, b, vals, k=2)
     assert all(np.array_equal(a, c) for a, c in zip((V, T, b, vals), copies))
+
+
+@pytest.mark.slow
+def test_auto_proves_the_principle_wherever_the_dual_or_regular_weights_allow(real_mesh):
+    """On every corpus mesh (boundary fixed to a step): proved with 0 values outside, or
+    the plain dual has a negative weight at a free vertex and regular_weights does not
+    find the mesh regular (EXPERIMENTS.md section 9)."""
+    name, V, T = real_mesh
+    V, T = tetlap.meshes.compact(V, T)
+    b = boundary(T, len(V))
+    r = tetlap.harmonic(V, T, b, step(V, b), degenerate="skip")
+    if r.proved:
+        assert r.out_of_range == 0, name
+    else:
+        dual, regular = r.reason.split("(", 1)[1].split(";")[:2]
+        assert "negative weight" in dual and "regular" in regular, (name, r.reason)
+        assert "regular_weights: regular" not in r.reason, (name, r.reason)
