@@ -13,6 +13,7 @@ mod errors;
 mod mesh;
 mod options;
 mod regular;
+mod solve;
 
 use pyo3::prelude::*;
 
@@ -34,6 +35,8 @@ mod _core {
     use crate::derivatives::vjp;
     #[pymodule_export]
     use crate::regular::{regular_conditions, regular_masses, regular_search};
+    #[pymodule_export]
+    use crate::solve::PyFactor;
 
     #[pymodule_init]
     fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
