@@ -18,6 +18,10 @@ from .info import SolveInfo
 #: Up to this many free vertices eigs solves the dense generalized problem (all
 #: eigenvalues, so the k smallest need no further proof).
 DENSE_MAX = 400
+#: ARPACK's relative accuracy of the Ritz values of the shift-inverted operator: 25% fewer
+#: solves than its default (machine precision) with pair residuals still near 1e-15
+#: (measured on the 189k-tet ball).
+ARPACK_TOL = 1e-10
 
 
 def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None, solver: str = "auto",
@@ -200,7 +204,7 @@ def _sparse_eigs(A, B, k, sigma, solver, diagonal, info, stages, progress):
             stages("shift-invert Lanczos")
             with info.phase("solve"):
                 try:
-                    lam, vec = eigsh(A, k=m, M=B, sigma=shift, which="LM", v0=v0,
+                    lam, vec = eigsh(A, k=m, M=B, sigma=shift, which="LM", v0=v0, tol=ARPACK_TOL,
                                      OPinv=LinearOperator((n, n), matvec=apply, dtype=np.float64))
                 except Exception as e:  # ARPACK failures: no eigenpairs to return
                     raise SolveError(f"the eigenproblem could not be solved ({type(e).__name__}: {e})") from e
