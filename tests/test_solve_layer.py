@@ -95,7 +95,7 @@ def test_an_indefinite_dual_gets_a_checked_direct_solution_or_an_error(bunny, mo
     try:
         g, info = solve.dirichlet(L, fixed, u, solver="amg", return_info=True)
     except tetlap.SolveError as e:
-        assert "curvature" in str(e) or "residual" in str(e)
+        assert "curvature" in str(e) or "residual" in str(e) or "converge" in str(e)
     else:
         assert info.residual <= solve.RESIDUAL_TOL
         assert np.abs(g - reference).max() <= 1e-6 * np.abs(reference).max()

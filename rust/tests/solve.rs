@@ -240,6 +240,10 @@ fn bad_input_is_an_error_not_a_panic() {
     let swap = CsrRef { n: 2, indptr: &indptr, indices: &indices, data: &data };
     let err = Factorization::new(swap, Method::Ldlt, &Ordering::Identity, &opts).unwrap_err();
     assert!(matches!(err, Error::Singular { row } if row < 2), "{err}");
+    // a 1 x 1 negative matrix: the failed pivot is named, not an index past the end
+    let (indptr, indices, data) = ([0, 1], [0], [-1.0]);
+    let negative = CsrRef { n: 1, indptr: &indptr, indices: &indices, data: &data };
+    assert_eq!(Factorization::new(negative, Method::Cholesky, &Ordering::Amd, &opts).unwrap_err(), Error::NotPositiveDefinite { row: 0 });
     // right-hand sides of the wrong length, a bad thread count
     let f = Factorization::new(a.view(), Method::Cholesky, &Ordering::Amd, &opts).unwrap();
     assert!(matches!(f.solve(&mut vec![0.0; a.n + 1], &opts), Err(Error::Shape { .. })));

@@ -3,7 +3,8 @@ and fallbacks, and what every answer passes (the residual check).
 
 ``"auto"`` tries, in order: ``"amg"`` for symmetric systems of at least ``AUTO_AMG_MIN``
 unknowns (CG stops with an error on a direction of negative curvature, a proof of
-indefiniteness; a CG answer is returned only when it passes the residual check), then
+indefiniteness, and when it does not converge; a CG answer is returned only when CG
+converged and the answer passes the residual check), then
 ``"cholesky"`` (``LL^T``, or ``LDL^T`` when that finds the system indefinite), then
 ``"lu"``; each failure is recorded in ``info.fallbacks``. A solver asked for by name is the
 only one tried.
@@ -47,14 +48,23 @@ def _lu(A, b, info):
         return np.atleast_1d(interruptible(spsolve, sp.csc_array(A), b))
 
 
-def _cholesky(A, b, info, progress):
+def _refined(A, b, info, progress):
+    """The cholesky solve, refined in extended precision when its answer is finite."""
+    F = _factor(A, info, progress)
+    with info.phase("solve"):
+        x = interruptible(F._raw, b[:, None])[:, 0]
+        if np.isfinite(x).all():
+            x = _checks.refine(A, x, b, lambda r: F._raw(r[:, None])[:, 0])
+    return x
+
+
+def _factor(A, info, progress) -> Factor:
     F = Factor(A, "cholesky", "auto", progress)
     for name, seconds in F.info.phases.items():
         info.phases[name] = info.phases.get(name, 0.0) + seconds
     info.solver, info.method, info.ordering, info.iterations = "cholesky", F.info.method, F.info.ordering, None
     info.fallbacks += F.info.fallbacks
-    with info.phase("solve"):
-        return interruptible(F._raw, b[:, None])[:, 0]
+    return F
 
 
 def solve(A: sp.csr_array, b: np.ndarray, what: str, *, solver: str, info, progress=None,
@@ -75,17 +85,17 @@ def solve(A: sp.csr_array, b: np.ndarray, what: str, *, solver: str, info, progr
             if name == "amg":
                 x = _amg.solve(A, b, info, progress)
             elif name == "cholesky":
-                x = _cholesky(A, b, info, progress)
+                x = _refined(A, b, info, progress)
             else:
                 x = _lu(A, b, info)
             info.residual = 0.0
             return _checks.accept(A, x, b, what, info, norm)
-        except (SolveError, _amg.Indefinite) as e:
+        except (SolveError, _amg.Failed) as e:
             if k == len(order) - 1:
                 if solver == "auto" or isinstance(e, SolveError):
                     raise SolveError(str(e) + _tried(info)) from None
                 raise SolveError(f"the {what}: {e}; solver=\"cholesky\" or \"lu\" solve "
-                                 "indefinite systems") from None
+                                 "indefinite and ill-conditioned systems") from None
             info.fallbacks.append(f"{name}: {e}")
     raise AssertionError("unreachable")
 

@@ -174,7 +174,11 @@ impl Factorization {
         };
         let mut mem = buffer(req)?;
         let stack = MemStack::new(&mut mem);
-        let row = |index: usize| self.symbolic.perm().map_or(index, |p| p.arrays().0[index]);
+        // faer counts the failed pivot from 1 in the simplicial form; clamped either way
+        let row = |index: usize| {
+            let k = index.saturating_sub(1).min(n.saturating_sub(1));
+            self.symbolic.perm().map_or(k, |p| p.arrays().0[k])
+        };
         match self.method {
             Method::Cholesky => self
                 .symbolic
