@@ -102,7 +102,8 @@ def run_case(case: str, path: str) -> dict:
         else:
             Q = sp.csc_matrix(-L)
             _, out["seconds"] = _timed(lambda: igl.min_quad_with_fixed(
-                Q, np.zeros(len(V)), b, values[b], sp.csc_matrix((0, len(V))), np.zeros(0), True))
+                Q, np.zeros((len(V), 1)), b.astype(np.int64), values[b][:, None],
+                sp.csc_matrix((0, len(V))), np.zeros((0, 1)), True))
     elif case == "eigs k=10":
         L, M = tetlap.operators(V, T, "primal", "barycentric")
         (lam, _, info), out["seconds"] = _timed(lambda: tetlap.solve.eigs(
