@@ -245,3 +245,28 @@ def test_neumann_with_every_solver(ball, solver):
                             return_info=True)
     assert np.abs(f - (u - u.mean())).max() < 1e-8
     assert info.residual <= solve.RESIDUAL_TOL
+
+
+def test_metis_in_a_child_process_gives_the_same_order(monkeypatch, tmp_path):
+    from tetlap.solve import factor
+
+    V, T = tetlap.meshes.cube(6)
+    A = factor.canonical(-tetlap.laplacian(V, T) + sp.eye_array(len(V)))
+    here = factor.nested_dissection(A)
+    monkeypatch.setattr(factor, "METIS_CHILD_MIN", 0)
+    assert np.array_equal(factor.nested_dissection(A), here)
+    # a user's script without a main guard is not run again by the child
+    script = tmp_path / "user.py"
+    script.write_text("import numpy as np, scipy.sparse as sp, tetlap\n"
+                      "from tetlap.solve import factor\n"
+                      "factor.METIS_CHILD_MIN = 0\n"
+                      "V, T = tetlap.meshes.cube(4)\n"
+                      "print('run', flush=True)\n"
+                      "F = tetlap.solve.factorize(sp.eye_array(len(V)) - tetlap.laplacian(V, T))\n"
+                      "print(F.info.ordering)\n")
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split("\n")[:2] == ["run", "nested dissection (METIS)"]

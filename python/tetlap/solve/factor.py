@@ -38,9 +38,9 @@ __all__ = ["factorize", "Factor", "ORDERINGS", "nested_dissection"]
 ORDERINGS = ("auto", "nd", "amd")
 
 
-#: From this many rows on, METIS runs in a child process (0.4 s to start) so that Ctrl-C
+#: From this many rows on, METIS runs in a child process (0.6 s to start) so that Ctrl-C
 #: is answered during it (pymetis holds the GIL: 2.4 s at 1M tets).
-METIS_CHILD_MIN = 50_000
+METIS_CHILD_MIN = 100_000
 
 
 def nested_dissection(A: sp.csr_array) -> np.ndarray | None:
