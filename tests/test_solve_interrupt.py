@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from test_interrupt import RESTORE_SIGINT, child, line
+from test_interrupt import LOOP, RESTORE_SIGINT, child, line
 
 PROBE = RESTORE_SIGINT + textwrap.dedent("""
     import sys, time, numpy as np, tetlap
@@ -23,14 +23,7 @@ PROBE = RESTORE_SIGINT + textwrap.dedent("""
         "factorize": lambda: tetlap.solve.factorize(M - 1e-3 * L),
         "eigs": lambda: tetlap.solve.eigs(L, M, 10, fixed),
     }
-    print("ready", flush=True)
-    try:
-        for _ in range(100):
-            calls[sys.argv[1]]()
-    except KeyboardInterrupt:
-        print("interrupted", time.time(), flush=True)
-        sys.exit(3)
-""")
+""") + LOOP
 
 
 @pytest.mark.slow
