@@ -67,8 +67,9 @@ def solve(A: sp.csr_array, b: np.ndarray, info, progress=None) -> np.ndarray:
         residuals: list[float] = []
         bar = _bar(progress)
         callback = (lambda x: bar.update(1)) if bar is not None else None
-        with info.phase("solve"), warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # an indefinite matrix is reported below
+        # recorded, not shown: an indefinite matrix is reported below (pyamg's cg puts an
+        # "always" filter of its own first, so an "ignore" filter would not hold)
+        with info.phase("solve"), warnings.catch_warnings(record=True):
             try:
                 xp, code = ml.solve(b[perm], tol=CG_RTOL, maxiter=CG_MAXITER, accel="cg",
                                     residuals=residuals, callback=callback, return_info=True)
