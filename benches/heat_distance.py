@@ -5,8 +5,8 @@ factorization, measured in the same run (issue 29's targets: each further source
     python benches/heat_distance.py [N_VERTICES] [--boundary neumann|average]
 
 Prints a table of median wall-clock times (seconds) and the ratios. The factorization is
-the one ``tetlap._factor.factorize`` gives (``tetlap.solve.factorize`` after the merge of
-the solver layer), of the heat matrix ``M - t L`` itself.
+``tetlap.solve.factorize`` of the heat matrix ``M - t L`` itself (the one the set-up makes
+first).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 import tetlap
-from tetlap._factor import factorize
+from tetlap.solve import factorize
 
 
 def timed(f, repeat):

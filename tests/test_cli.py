@@ -18,6 +18,7 @@ import sys
 import pytest
 
 import tetlap
+from tetlap import benchmark_solve
 from tetlap import cli, experiments
 from tetlap.cli import _output
 
@@ -130,7 +131,7 @@ NUMERIC = sorted(numeric_flags())
 
 def test_the_numeric_flags_are_known():
     assert {f"{c} {f}" for c, f, _ in NUMERIC} == {
-        "info --regular-time", "bench --threads", "bench --repeat", "experiment --seed",
+        "info --regular-time", "bench --threads", "bench --repeat", "bench --cap", "experiment --seed",
         "improve --margin", "improve --iterations", "improve --step", "improve --threads",
         "geodesic --source", "geodesic --time", "geodesic --threads"}
 
@@ -147,6 +148,7 @@ def test_every_impossible_numeric_flag_is_one_line_before_any_work(command, flag
     monkeypatch.setattr(tetlap.meshes, "ball", work)
     monkeypatch.setattr(experiments, "run", work)
     monkeypatch.setattr(tetlap.benchmark, "run", work)
+    monkeypatch.setattr(benchmark_solve, "run", work)
     bad = ["-1", "-2.5"] if kind is float else ["-1"]
     bad += ["nan", "inf", "-inf", "1e999"] if kind is float else []
     bad += [] if flag in ZERO_OK else ["0", "0.0"] if kind is float else ["0"]

@@ -81,3 +81,26 @@ def test_with_libigl_its_column_is_filled():
     table = _output.bench_table(records)
     assert table.splitlines()[0].endswith("igl.cot / this") and "nan" not in table
     assert all(r["igl_cotmatrix_over_this"] > 0 for r in records)
+
+
+@pytest.mark.parametrize("cap", ["0", "-1", "nan"])
+def test_bench_solve_checks_its_cap(cap):
+    out = run("bench", "--solve", "--cap", cap)
+    assert out.returncode != 0 and "--cap" in out.stderr and "Traceback" not in out.stderr
+
+
+def test_bench_solve_runs_the_solve_benchmark(monkeypatch, capsys):
+    from tetlap import benchmark_solve
+
+    seen = {}
+
+    def fake_run(names, cap, progress):
+        seen.update(names=names, cap=cap)
+        return [{"mesh": "ball 189k", "n_tets": 1, "case": "dirichlet primal", "status": "ok",
+                 "seconds": 2.0, "assembly_s": 1.0, "over_assembly": 2.0, "peak_rss_mb": 10.0,
+                 "info": {"solver": "amg", "iterations": 3, "residual": 1e-12, "phases": {}}}]
+
+    monkeypatch.setattr(benchmark_solve, "run", fake_run)
+    assert cli.main(["bench", "--solve", "--quick", "--cap", "30", "--json"]) == 0
+    assert seen == {"names": ["ball 189k"], "cap": 30.0}
+    assert strict_json(capsys.readouterr().out)[0]["case"] == "dirichlet primal"

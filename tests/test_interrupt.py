@@ -26,6 +26,17 @@ import pytest
 #: The first lines of every child: Python's own SIGINT handler, whatever was inherited.
 RESTORE_SIGINT = "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
 
+#: The end of every probe: the call named by argv[1] of ``calls``, repeated until Ctrl-C.
+LOOP = textwrap.dedent("""
+    print("ready", flush=True)
+    try:
+        for _ in range(100):
+            calls[sys.argv[1]]()
+    except KeyboardInterrupt:
+        print("interrupted", time.time(), flush=True)
+        sys.exit(3)
+""")
+
 PROBE = RESTORE_SIGINT + textwrap.dedent("""
     import sys, time, tetlap
     V, T = tetlap.meshes.cube(50, jitter=0.2)  # 750k tets
@@ -41,14 +52,7 @@ PROBE = RESTORE_SIGINT + textwrap.dedent("""
         "diagnostics": lambda: tetlap.diagnostics.summary(V, T),
         "info": lambda: tetlap.info.report(V, T, progress=False),
     }
-    print("ready", flush=True)
-    try:
-        for _ in range(100):
-            calls[sys.argv[1]]()
-    except KeyboardInterrupt:
-        print("interrupted", time.time(), flush=True)
-        sys.exit(3)
-""")
+""") + LOOP
 
 CALLS = ["laplacian", "operators", "Mesh", "Mesh.update", "check", "diagnostics", "info"]
 

@@ -33,7 +33,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from . import _arrays, _core, _options, assembly, calculus
-from ._factor import factorize
+from .solve import factorize
 from .errors import DegenerateElementError, IndexRangeError, OptionError, ShapeError
 
 __all__ = ["HeatDistance", "heat_distance", "BOUNDARY_CONDITIONS"]
@@ -198,7 +198,7 @@ class HeatDistance:
         pinned = np.zeros(n, dtype=bool)
         pinned[used[np.unique(self._labels[used], return_index=True)[1]]] = True
         free = np.flatnonzero(self._used & ~pinned)
-        self._poisson = (free, self._factor(L[free][:, free]) if len(free) else None)
+        self._poisson = (free, self._factor(-L[free][:, free]) if len(free) else None)
         self.n_factorizations = self._factors
 
     def _factor(self, A):
@@ -259,7 +259,7 @@ class HeatDistance:
         free, factor = self._poisson
         phi = np.zeros(self.n)
         if factor is not None:
-            phi[free] = factor.solve(b[free])
+            phi[free] = factor.solve(-b[free])   # the factor is of -L_FF
         d = np.full(self.n, np.inf)
         for label in np.unique(self._labels[s]):
             component = (self._labels == label) & self._used

@@ -60,6 +60,14 @@ pub enum Error {
     NotDifferentiable { what: &'static str },
     /// The computation was cancelled through [`crate::Options::cancel`].
     Cancelled,
+    /// A Cholesky factorization ([`crate::solve::Method::Cholesky`]) met a pivot `<= 0`:
+    /// the matrix is not positive definite (`row` is the matrix row of that pivot).
+    NotPositiveDefinite { row: usize },
+    /// An `LDL^T` factorization without pivoting ([`crate::solve::Method::Ldlt`]) met a
+    /// zero pivot at matrix row `row`.
+    Singular { row: usize },
+    /// Not enough memory for `what`.
+    OutOfMemory { what: &'static str },
 }
 
 /// Options that only some kinds of element support (see [`Error::Unsupported`]).
@@ -150,6 +158,15 @@ impl fmt::Display for Error {
                 write!(f, "derivatives of {what} are not available")
             }
             Error::Cancelled => write!(f, "cancelled"),
+            Error::NotPositiveDefinite { row } => write!(
+                f,
+                "the matrix is not positive definite: the Cholesky pivot of row {row} is not positive \
+                 (Method::Ldlt factorizes indefinite matrices)"
+            ),
+            Error::Singular { row } => {
+                write!(f, "the LDL^T factorization met a zero pivot at row {row}: the matrix is singular there")
+            }
+            Error::OutOfMemory { what } => write!(f, "not enough memory for {what}"),
         }
     }
 }

@@ -50,7 +50,9 @@
 //! 4. [`mod@topology`]: what the elements alone say (grouping, faces);
 //! 5. [`mod@assembly`]: the drivers (internal order, pattern, per-element pass, scatter,
 //!    [`CachedMesh`], derivatives: [`vjp`], [`mod@derivatives`]);
-//! 6. [`mod@analysis`]: checks and certificates of an operator on its mesh.
+//! 6. [`mod@analysis`]: checks and certificates of an operator on its mesh;
+//! 7. [`mod@solve`]: sparse factorizations of the operators for linear systems,
+//!    repeated solves and eigenproblems ([`solve::Factorization`]).
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -64,6 +66,7 @@ mod mesh;
 pub mod topology;
 pub mod assembly;
 pub mod analysis;
+pub mod solve;
 
 pub use analysis::{
     check_operator, negative_semidefinite, negative_semidefinite_by_elements, non_delaunay_faces, quality,

@@ -16,6 +16,7 @@ const LAYERS: &[&[&str]] = &[
     &["topology"],
     &["assembly"],
     &["analysis"],
+    &["solve"],
 ];
 
 fn layer(module: &str) -> Option<usize> {

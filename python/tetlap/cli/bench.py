@@ -28,6 +28,12 @@ def arguments(p) -> None:
                    help="only cases whose name contains a word, e.g. primal dual Mesh check "
                         "info numpy voronoi scikit (the floor always runs, and igl.cotmatrix "
                         "when libigl is installed: the last column is relative to it)")
+    p.add_argument("--solve", action="store_true",
+                   help="time tetlap.solve instead (Dirichlet, eigs, factorize on 189k-1M tets, "
+                        "each case in its own process, against one assembly, SuperLU, pyamg "
+                        "and libigl: tetlap.benchmark_solve); --quick: the 189k-tet ball only")
+    p.add_argument("--cap", type=float, default=300.0,
+                   help="--solve: seconds after which a case is killed (default: 300)")
     p.add_argument("--quick", action="store_true", help="small sizes, fewer repetitions")
     p.add_argument("--json", action="store_true", help="print JSON records (default: a table)")
 
@@ -36,10 +42,20 @@ def check(args) -> None:
     _options.threads(args.threads, "--threads")
     if args.repeat is not None:
         _options.count(args.repeat, "--repeat")
+    _options.positive(args.cap, "--cap")
 
 
 def run(args) -> int:
     from .. import benchmark
+
+    if args.solve:
+        from .. import benchmark_solve
+
+        names = ["ball 189k"] if args.quick else list(benchmark_solve.MESHES)
+        records = benchmark_solve.run(names, cap=args.cap, progress=not args.json)
+        print(_output.json_document(records, indent=1) if args.json
+              else benchmark_solve.table(records))
+        return 0
 
     sizes = args.sizes or (["10k", "100k"] if args.quick else ["100k", "1M"])
     kinds = args.kinds or (["kuhn", "delaunay"] if args.quick else list(benchmark.KINDS))

@@ -20,6 +20,7 @@ struct Classes {
     degenerate: Py<PyType>,
     option: Py<PyType>,
     internal: Py<PyType>,
+    solve: Py<PyType>,
 }
 
 static CLASSES: PyOnceLock<Classes> = PyOnceLock::new();
@@ -37,6 +38,7 @@ pub fn init(py: Python<'_>) -> PyResult<()> {
         degenerate: class("DegenerateElementError")?,
         option: class("OptionError")?,
         internal: class("InternalError")?,
+        solve: class("SolveError")?,
     };
     let _ = CLASSES.set(py, classes);
     Ok(())
@@ -159,6 +161,19 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             raise(py, &c.option, format!("derivatives of {what} are not available"), &[])
         }
         Error::Cancelled => PyKeyboardInterrupt::new_err("cancelled"),
+        Error::NotPositiveDefinite { row } => raise(
+            py,
+            &c.solve,
+            format!("the matrix is not positive definite: the Cholesky pivot of its row {row} is not positive"),
+            &[("index", i(row))],
+        ),
+        Error::Singular { row } => raise(
+            py,
+            &c.solve,
+            format!("the LDL^T factorization met a zero pivot at row {row}: the matrix is singular there"),
+            &[("index", i(row))],
+        ),
+        Error::OutOfMemory { .. } => raise(py, &c.solve, e.to_string(), &[]),
     }
 }
 

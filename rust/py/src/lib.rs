@@ -14,6 +14,7 @@ mod gradient;
 mod mesh;
 mod options;
 mod regular;
+mod solve;
 
 use pyo3::prelude::*;
 
@@ -37,6 +38,8 @@ mod _core {
     use crate::gradient::gradients;
     #[pymodule_export]
     use crate::regular::{regular_conditions, regular_masses, regular_search};
+    #[pymodule_export]
+    use crate::solve::PyFactor;
 
     #[pymodule_init]
     fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {

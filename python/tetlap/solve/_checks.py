@@ -1,0 +1,151 @@
+"""The checks of what the solvers take (masks, values, options) and of what they return
+(the one residual rule)."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .. import _arrays, _options
+from ..errors import DtypeError, IndexRangeError, OptionError, ShapeError, SolveError
+
+#: Largest relative residual ``|A x - b|_inf / (|A|_inf |x|_inf + |b|_inf)`` accepted.
+RESIDUAL_TOL = 1e-8
+#: The solvers of every function of :mod:`tetlap.solve`.
+SOLVERS = ("auto", "amg", "cholesky", "lu")
+
+
+def solver(name, allowed=SOLVERS) -> str:
+    if not isinstance(name, str) or name not in allowed:
+        raise OptionError(f"solver must be one of {', '.join(map(repr, allowed))}, got {name!r}")
+    return name
+
+
+def flag(value, name: str):
+    """``value`` if it is True, False (or None where None means "when stderr is a terminal")."""
+    if value is not None and not isinstance(value, (bool, np.bool_)):
+        raise OptionError(f"{name} must be True, False or None, got {value!r}")
+    return value
+
+
+def rtol(value, name: str = "rtol") -> float:
+    return float(_options.non_negative(value, name))
+
+
+def mask(fixed, n: int) -> np.ndarray:
+    fixed = _arrays._as_array(fixed, "fixed")
+    if fixed.dtype == bool:
+        if fixed.shape != (n,):
+            raise ShapeError(f"a boolean `fixed` must have shape ({n},), got {fixed.shape}")
+        return fixed.copy()
+    if fixed.size == 0:
+        return np.zeros(n, dtype=bool)
+    if fixed.dtype.kind not in "iu":
+        raise DtypeError("`fixed` must be a boolean mask or integer vertex indices")
+    if fixed.min() < 0 or fixed.max() >= n:
+        bad = int(fixed.ravel()[np.argmax((fixed.ravel() < 0) | (fixed.ravel() >= n))])
+        raise IndexRangeError(f"`fixed` holds the index {bad}, outside 0..{n - 1}", index=bad)
+    out = np.zeros(n, dtype=bool)
+    out[fixed.ravel()] = True
+    return out
+
+
+def values(v, fixed: np.ndarray) -> np.ndarray:
+    n = len(fixed)
+    v = np.asarray(v) if np.isscalar(v) else _arrays._as_array(v, "values")
+    if v.dtype.kind not in "fiub":
+        raise DtypeError(f"values must hold real numbers, got dtype {v.dtype}")
+    v = v.astype(np.float64)
+    if v.ndim == 0:
+        out = np.zeros(n)
+        out[fixed] = v
+    elif v.shape == (n,):
+        out = np.where(fixed, v, 0.0)
+    elif v.shape == (int(fixed.sum()),):
+        out = np.zeros(n)
+        out[fixed] = v
+    else:
+        raise ShapeError(
+            f"values must be a scalar, one per vertex ({n}) or one per fixed vertex "
+            f"({int(fixed.sum())}), got shape {v.shape}")
+    return _arrays.vector(out, n, "values")
+
+
+def gauge(g, n: int):
+    """``"mean"`` or a checked vertex index."""
+    if isinstance(g, str):
+        if g != "mean":
+            raise OptionError(f'gauge must be "mean" or a vertex index, got {g!r}')
+        return g
+    return _arrays.vertex_index(g, n, "gauge")
+
+
+def row_norm(A) -> float:
+    """``|A|_inf``: the largest absolute row sum."""
+    return float(np.abs(A).sum(axis=1).max()) if A.shape[0] else 0.0
+
+
+def relative_residual(A, x: np.ndarray, b: np.ndarray, norm: float | None = None) -> float:
+    """``|A x - b|_inf / (|A|_inf |x|_inf + |b|_inf)`` (0 for an empty or all-zero system);
+    ``x``, ``b`` of shape (n,) or (n, k) (the largest over the columns)."""
+    if not len(b):
+        return 0.0
+    if not np.isfinite(x).all():
+        return np.inf
+    norm = row_norm(A) if norm is None else norm
+    r = np.abs(A @ x - b).max(axis=0)
+    scale = norm * np.abs(x).max(axis=0) + np.abs(b).max(axis=0)
+    return float(np.max(np.where(scale > 0, r / np.maximum(scale, 1e-300), np.where(r > 0, np.inf, 0.0))))
+
+
+def accept(A, x, b, what: str, info, norm: float | None = None) -> np.ndarray:
+    """``x`` if it passes the residual check (the residual goes into ``info``), else
+    :class:`tetlap.SolveError` saying why."""
+    with info.phase("check"):
+        res = relative_residual(A, x, b, norm)
+    info.residual = max(info.residual, res)
+    if not np.isfinite(x).all():
+        raise SolveError(f"the {what} is singular (the solution is not finite)")
+    if res > RESIDUAL_TOL:
+        raise SolveError(f"the {what} is singular or too ill-conditioned: relative residual "
+                         f"{res:.1e} (tolerance {RESIDUAL_TOL:g})")
+    return x
+
+
+def extended_residual(A: sp.csr_array, x: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``b - A x`` (n,) accumulated in extended precision (``np.longdouble``: 64-bit
+    mantissas on x86), rounded to float64: the residual of iterative refinement."""
+    A = sp.csr_array(A)
+    products = A.data.astype(np.longdouble) * np.asarray(x, dtype=np.longdouble)[A.indices]
+    sums = np.zeros(A.shape[0], dtype=np.longdouble)
+    rows = np.diff(A.indptr) > 0
+    if products.size:
+        sums[rows] = np.add.reduceat(products, A.indptr[:-1][rows])
+    return np.asarray(np.asarray(b, dtype=np.longdouble) - sums, dtype=np.float64)
+
+
+#: Steps of iterative refinement after a direct solve.
+REFINE_STEPS = 2
+
+
+def refine(A, x: np.ndarray, b: np.ndarray, solve) -> np.ndarray:
+    """``x`` improved by ``REFINE_STEPS`` steps of iterative refinement with the residual in
+    extended precision: the forward error of a direct solve falls from ``cond(A) * eps``
+    towards ``eps`` (measured: 4.5e-8 -> 1e-12 relative on a corpus mesh with
+    ``cond(-L_FF) = 1.6e11``)."""
+    for _ in range(REFINE_STEPS):
+        x = x + solve(extended_residual(A, x, b))
+    return x
+
+
+def components(L: sp.csr_array):
+    """Connected components of the graph of the non-zero entries of ``L``, and the
+    referenced vertices (rows with a non-zero entry): unreferenced vertices take part in
+    no system."""
+    from scipy.sparse import csgraph
+
+    nonzero = sp.csr_array((L.data != 0, L.indices.copy(), L.indptr.copy()), shape=L.shape)
+    nonzero.eliminate_zeros()
+    referenced = np.diff(nonzero.indptr) > 0
+    _, labels = csgraph.connected_components(nonzero, directed=False)
+    return labels, referenced

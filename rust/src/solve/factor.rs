@@ -1,0 +1,286 @@
+//! [`Factorization`]: faer's sparse `LL^T` / `LDL^T` behind a small, checked API.
+
+use crate::error::{Error, Result};
+use crate::options::Options;
+use crate::sparse::CsrRef;
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::perm::PermRef;
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLdltRef;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, LltRef, SymbolicCholesky, SymbolicCholeskyRaw,
+    SymmetricOrdering,
+};
+use faer::linalg::cholesky::ldlt::factor::LdltError;
+use faer::linalg::cholesky::llt::factor::LltError;
+use faer::sparse::FaerError;
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par, Side};
+
+/// Which factorization.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// `A = P L L^T P^T`: `A` must be positive definite, else
+    /// [`Error::NotPositiveDefinite`] names the row whose pivot failed. Its success proves
+    /// that `A` is positive definite (up to the rounding of a backward-stable method).
+    Cholesky,
+    /// `A = P L D L^T P^T` with diagonal `D`, without pivoting: any symmetric matrix whose
+    /// leading pivots (in the ordering) are non-zero, else [`Error::Singular`]. Without
+    /// pivoting it is not backward stable for indefinite matrices: check what it solves.
+    Ldlt,
+}
+
+/// The fill-reducing ordering of the symbolic analysis.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Ordering {
+    /// faer's approximate minimum degree.
+    Amd,
+    /// No reordering.
+    Identity,
+    /// `order[k]` is the row eliminated `k`-th (a permutation of `0..n`), such as a nested
+    /// dissection computed by METIS.
+    Custom(Vec<u32>),
+}
+
+/// The signs of the pivots `D` of an `LDL^T` factorization: by Sylvester's law of inertia,
+/// the numbers of negative, zero and positive eigenvalues of the factorized matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Inertia {
+    /// Negative pivots.
+    pub negative: usize,
+    /// Zero pivots.
+    pub zero: usize,
+    /// Positive pivots.
+    pub positive: usize,
+}
+
+/// A sparse symmetric factorization of an `n x n` matrix, reusable for many right-hand
+/// sides and, through [`Factorization::refactor`], for new values on the same pattern.
+///
+/// Only the upper triangle of the CSR input is read (for a symmetric matrix, the lower
+/// triangle of its CSC form); the caller checks symmetry.
+///
+/// ```
+/// use tetlap::solve::{Factorization, Method, Ordering};
+/// use tetlap::{CsrRef, Options};
+/// // the 1-D Laplacian [[2, -1, 0], [-1, 2, -1], [0, -1, 2]]
+/// let (indptr, indices) = ([0, 2, 5, 7], [0, 1, 0, 1, 2, 1, 2]);
+/// let data = [2.0, -1.0, -1.0, 2.0, -1.0, -1.0, 2.0];
+/// let a = CsrRef { n: 3, indptr: &indptr, indices: &indices, data: &data };
+/// let opts = Options::default();
+/// let mut f = Factorization::new(a, Method::Cholesky, &Ordering::Amd, &opts)?;
+/// let mut x = [1.0, 0.0, 1.0];
+/// f.solve(&mut x, &opts)?;
+/// assert!(x.iter().all(|v| (v - 1.0).abs() < 1e-14));
+/// // the same pattern, new values: 2 A
+/// let doubled: Vec<f64> = data.iter().map(|v| 2.0 * v).collect();
+/// f.refactor(CsrRef { data: &doubled, ..a }, &opts)?;
+/// let mut y = [1.0, 0.0, 1.0];
+/// f.solve(&mut y, &opts)?;
+/// assert!(y.iter().all(|v| (v - 0.5).abs() < 1e-14));
+/// # Ok::<(), tetlap::Error>(())
+/// ```
+#[derive(Debug)]
+pub struct Factorization {
+    method: Method,
+    indptr: Vec<usize>,
+    indices: Vec<usize>,
+    symbolic: SymbolicCholesky<usize>,
+    values: Vec<f64>,
+}
+
+fn faer_error(e: FaerError) -> Error {
+    match e {
+        FaerError::OutOfMemory => Error::OutOfMemory { what: "the sparse factorization" },
+        _ => Error::OutOfMemory { what: "the sparse factorization's indices" },
+    }
+}
+
+/// A `MemBuffer` of `req`, or [`Error::OutOfMemory`].
+fn buffer(req: StackReq) -> Result<MemBuffer> {
+    MemBuffer::try_new(req).map_err(|_| Error::OutOfMemory { what: "the factorization's workspace" })
+}
+
+impl Factorization {
+    /// The symbolic analysis (ordering, elimination tree, supernodes) and the numeric
+    /// factorization of `a` (any square CSR layout: [`CsrRef::check_shape`]).
+    pub fn new(a: CsrRef<'_>, method: Method, ordering: &Ordering, opts: &Options) -> Result<Self> {
+        opts.check()?;
+        a.check_shape(a.n, "the matrix to factorize")?;
+        let n = a.n;
+        let indptr = a.indptr.to_vec();
+        let indices: Vec<usize> = a.indices.iter().map(|&j| j as usize).collect();
+        let (forward, inverse);
+        let ordering = match ordering {
+            Ordering::Amd => SymmetricOrdering::Amd,
+            // (faer's own Identity ordering reads the pattern as an upper triangle: the
+            // identity is passed as a permutation instead)
+            Ordering::Identity | Ordering::Custom(_) => {
+                forward = match ordering {
+                    Ordering::Custom(order) => permutation(order, n)?,
+                    _ => (0..n).collect(),
+                };
+                let mut inv = vec![0usize; n];
+                for (k, &i) in forward.iter().enumerate() {
+                    inv[i] = k;
+                }
+                inverse = inv;
+                SymmetricOrdering::Custom(PermRef::new_checked(&forward, &inverse, n))
+            }
+        };
+        opts.cancelled()?;
+        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &indptr, None, &indices);
+        let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, ordering, CholeskySymbolicParams::default())
+            .map_err(faer_error)?;
+        let mut values = Vec::new();
+        values.try_reserve_exact(symbolic.len_val()).map_err(|_| Error::OutOfMemory { what: "the factor" })?;
+        values.resize(symbolic.len_val(), 0.0);
+        let mut f = Factorization { method, indptr, indices, symbolic, values };
+        opts.cancelled()?;
+        f.numeric(a.data)?;
+        Ok(f)
+    }
+
+    /// Factorizes new values of the same pattern (the same `indptr` and `indices`, else
+    /// [`Error::Shape`]), reusing the symbolic analysis. On an error the factorization
+    /// keeps no usable values: refactor again before solving.
+    pub fn refactor(&mut self, a: CsrRef<'_>, opts: &Options) -> Result<()> {
+        opts.check()?;
+        let same = a.n + 1 == self.indptr.len()
+            && a.indptr == self.indptr.as_slice()
+            && a.indices.len() == self.indices.len()
+            && a.indices.iter().zip(&self.indices).all(|(&a, &b)| a as usize == b);
+        if !same {
+            return Err(Error::Shape {
+                what: "refactor: the matrix has another sparsity pattern than the factorized one \
+                       (factorize it anew)"
+                    .into(),
+            });
+        }
+        if a.data.len() != self.indices.len() {
+            return Err(Error::Shape { what: "refactor: one value per stored entry is needed".into() });
+        }
+        opts.cancelled()?;
+        self.numeric(a.data)
+    }
+
+    fn numeric(&mut self, data: &[f64]) -> Result<()> {
+        let n = self.n();
+        let a = SparseColMatRef::new(SymbolicSparseColMatRef::new_checked(n, n, &self.indptr, None, &self.indices), data);
+        let req = match self.method {
+            Method::Cholesky => self.symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+            Method::Ldlt => self.symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
+        };
+        let mut mem = buffer(req)?;
+        let stack = MemStack::new(&mut mem);
+        // faer counts the failed pivot from 1 in the simplicial form; clamped either way
+        let row = |index: usize| {
+            let k = index.saturating_sub(1).min(n.saturating_sub(1));
+            self.symbolic.perm().map_or(k, |p| p.arrays().0[k])
+        };
+        match self.method {
+            Method::Cholesky => self
+                .symbolic
+                .factorize_numeric_llt(&mut self.values, a, Side::Lower, LltRegularization::default(), Par::Seq, stack, Default::default())
+                .map(|_| ())
+                .map_err(|LltError::NonPositivePivot { index }| Error::NotPositiveDefinite { row: row(index) }),
+            Method::Ldlt => self
+                .symbolic
+                .factorize_numeric_ldlt(&mut self.values, a, Side::Lower, LdltRegularization::default(), Par::Seq, stack, Default::default())
+                .map(|_| ())
+                .map_err(|LdltError::ZeroPivot { index }| Error::Singular { row: row(index) }),
+        }
+    }
+
+    /// Solves `A X = B` in place: `rhs` holds `B`, `n x k` column-major (`k` columns of `n`
+    /// values one after the other), and receives `X`.
+    pub fn solve(&self, rhs: &mut [f64], opts: &Options) -> Result<()> {
+        opts.check()?;
+        let n = self.n();
+        if n == 0 || rhs.len() % n != 0 {
+            return Err(Error::Shape {
+                what: format!("the right-hand sides hold {} values, not a multiple of n = {n}", rhs.len()),
+            });
+        }
+        let k = rhs.len() / n;
+        let mut mem = buffer(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq))?;
+        let stack = MemStack::new(&mut mem);
+        let rhs = MatMut::from_column_major_slice_mut(rhs, n, k);
+        match self.method {
+            Method::Cholesky => {
+                LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
+            }
+            Method::Ldlt => {
+                LdltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
+            }
+        }
+        Ok(())
+    }
+
+    /// The signs of the pivots: for [`Method::Ldlt`] the entries of `D`; a [`Method::Cholesky`]
+    /// factorization exists only for positive definite matrices (all `n` positive).
+    pub fn inertia(&self) -> Inertia {
+        let mut inertia = Inertia { negative: 0, zero: 0, positive: 0 };
+        let mut count = |d: f64| {
+            if d < 0.0 {
+                inertia.negative += 1
+            } else if d > 0.0 {
+                inertia.positive += 1
+            } else {
+                inertia.zero += 1
+            }
+        };
+        match (self.method, self.symbolic.raw()) {
+            (Method::Cholesky, _) => inertia.positive = self.n(),
+            (Method::Ldlt, SymbolicCholeskyRaw::Simplicial(s)) => {
+                // the diagonal entry leads every column of the simplicial factor
+                s.col_ptr()[..self.n()].iter().for_each(|&start| count(self.values[start]))
+            }
+            (Method::Ldlt, SymbolicCholeskyRaw::Supernodal(s)) => {
+                let factor = SupernodalLdltRef::new(s, &self.values);
+                for i in 0..s.n_supernodes() {
+                    let block = factor.supernode(i).val();
+                    (0..block.ncols()).for_each(|j| count(block[(j, j)]));
+                }
+            }
+        }
+        inertia
+    }
+
+    /// The matrix order `n`.
+    pub fn n(&self) -> usize {
+        self.indptr.len() - 1
+    }
+
+    /// The method.
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
+    /// The stored values of the factor `L` (its fill).
+    pub fn factor_entries(&self) -> usize {
+        self.values.len()
+    }
+
+    /// Whether faer chose the supernodal (dense blocks) rather than the simplicial form.
+    pub fn supernodal(&self) -> bool {
+        matches!(self.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_))
+    }
+}
+
+/// `order` as `usize` indices after checking it is a permutation of `0..n`.
+fn permutation(order: &[u32], n: usize) -> Result<Vec<usize>> {
+    let mut seen = vec![false; n];
+    if order.len() != n {
+        return Err(Error::Shape { what: format!("the ordering has {} entries, the matrix {n} rows", order.len()) });
+    }
+    for (k, &i) in order.iter().enumerate() {
+        let i = i as usize;
+        if i >= n || seen[i] {
+            return Err(Error::Shape { what: format!("the ordering is not a permutation of 0..{n} (entry {k} is {i})") });
+        }
+        seen[i] = true;
+    }
+    Ok(order.iter().map(|&i| i as usize).collect())
+}

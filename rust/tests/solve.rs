@@ -1,0 +1,257 @@
+//! `tetlap::solve::Factorization`: solves checked against a dense reference, refactoring on
+//! the same pattern, inertia of indefinite matrices, determinism, and errors (never panics).
+
+use tetlap::solve::{Factorization, Inertia, Method, Ordering};
+use tetlap::{laplacian, CsrRef, Error, LaplacianKind, Options, TetView};
+
+/// A square CSR matrix, owned.
+struct Matrix {
+    n: usize,
+    indptr: Vec<usize>,
+    indices: Vec<u32>,
+    data: Vec<f64>,
+}
+
+impl Matrix {
+    fn view(&self) -> CsrRef<'_> {
+        CsrRef { n: self.n, indptr: &self.indptr, indices: &self.indices, data: &self.data }
+    }
+
+    fn times(&self, x: &[f64]) -> Vec<f64> {
+        (0..self.n)
+            .map(|i| (self.indptr[i]..self.indptr[i + 1]).map(|k| self.data[k] * x[self.indices[k] as usize]).sum())
+            .collect()
+    }
+
+    /// `-L + shift I` of the primal Laplacian of a jittered grid with `k^3` cubes, its
+    /// first vertex fixed (dropped), so that `shift = 0` is positive definite.
+    fn grid(k: usize, shift: f64) -> Matrix {
+        let (points, tets) = grid_mesh(k);
+        let mesh = TetView::new(&points, 3, &tets).unwrap();
+        let l = laplacian(&mesh, LaplacianKind::Primal, &Options::default()).unwrap();
+        let mut m = Matrix { n: l.n - 1, indptr: vec![0], indices: vec![], data: vec![] };
+        for i in 1..l.n {
+            for k in l.indptr[i]..l.indptr[i + 1] {
+                let j = l.indices[k] as usize;
+                if j > 0 {
+                    m.indices.push(j as u32 - 1);
+                    m.data.push(-l.data[k] + if i == j { shift } else { 0.0 });
+                }
+            }
+            m.indptr.push(m.indices.len());
+        }
+        m
+    }
+}
+
+/// A Kuhn grid of the unit cube with deterministic jitter.
+fn grid_mesh(k: usize) -> (Vec<f64>, Vec<[u32; 4]>) {
+    let id = |x: usize, y: usize, z: usize| (x + (k + 1) * (y + (k + 1) * z)) as u32;
+    let mut points = vec![];
+    let mut state = 12345u64;
+    for z in 0..=k {
+        for y in 0..=k {
+            for x in 0..=k {
+                for c in [x, y, z] {
+                    state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    let jitter = ((state >> 33) as f64 / (1u64 << 31) as f64 - 0.5) * 0.2;
+                    points.push((c as f64 + if c > 0 && c < k { jitter } else { 0.0 }) / k as f64);
+                }
+            }
+        }
+    }
+    let mut tets = vec![];
+    for z in 0..k {
+        for y in 0..k {
+            for x in 0..k {
+                let c = |dx, dy, dz| id(x + dx, y + dy, z + dz);
+                let (a, g) = (c(0, 0, 0), c(1, 1, 1));
+                for path in [[c(1, 0, 0), c(1, 1, 0)], [c(1, 0, 0), c(1, 0, 1)], [c(0, 1, 0), c(1, 1, 0)],
+                             [c(0, 1, 0), c(0, 1, 1)], [c(0, 0, 1), c(1, 0, 1)], [c(0, 0, 1), c(0, 1, 1)]] {
+                    tets.push([a, path[0], path[1], g]);
+                }
+            }
+        }
+    }
+    (points, tets)
+}
+
+fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0, |m, x| m.max(x.abs()))
+}
+
+fn residual(a: &Matrix, x: &[f64], b: &[f64]) -> f64 {
+    let ax = a.times(x);
+    max_abs(&ax.iter().zip(b).map(|(p, q)| p - q).collect::<Vec<_>>()) / max_abs(b)
+}
+
+/// The eigenvalues of a small symmetric matrix, ascending, by cyclic Jacobi rotations (a
+/// dense reference independent of the factorization under test).
+fn dense_eigenvalues(a: &Matrix) -> Vec<f64> {
+    let n = a.n;
+    let mut m = vec![0.0; n * n];
+    for i in 0..n {
+        for k in a.indptr[i]..a.indptr[i + 1] {
+            m[i * n + a.indices[k] as usize] = a.data[k];
+        }
+    }
+    for _sweep in 0..100 {
+        let off: f64 = (0..n).flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j))).map(|(i, j)| m[i * n + j].powi(2)).sum();
+        if off < 1e-24 {
+            break;
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                let apq = m[p * n + q];
+                if apq.abs() < 1e-300 {
+                    continue;
+                }
+                let theta = (m[q * n + q] - m[p * n + p]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let (c, s) = (1.0 / (t * t + 1.0).sqrt(), t / (t * t + 1.0).sqrt());
+                for k in 0..n {
+                    let (akp, akq) = (m[k * n + p], m[k * n + q]);
+                    m[k * n + p] = c * akp - s * akq;
+                    m[k * n + q] = s * akp + c * akq;
+                }
+                for k in 0..n {
+                    let (apk, aqk) = (m[p * n + k], m[q * n + k]);
+                    m[p * n + k] = c * apk - s * aqk;
+                    m[q * n + k] = s * apk + c * aqk;
+                }
+            }
+        }
+    }
+    let mut lam: Vec<f64> = (0..n).map(|i| m[i * n + i]).collect();
+    lam.sort_by(f64::total_cmp);
+    lam
+}
+
+#[test]
+fn a_positive_definite_system_is_solved_with_every_ordering_and_method() {
+    let a = Matrix::grid(5, 0.0);
+    let b: Vec<f64> = (0..a.n).map(|i| ((i * 7) % 11) as f64 - 5.0).collect();
+    let reverse: Vec<u32> = (0..a.n as u32).rev().collect();
+    for ordering in [Ordering::Amd, Ordering::Identity, Ordering::Custom(reverse)] {
+        for method in [Method::Cholesky, Method::Ldlt] {
+            let f = Factorization::new(a.view(), method, &ordering, &Options::default()).unwrap_or_else(|e| panic!("{ordering:?} {method:?} {e}"));
+            let mut x = b.clone();
+            f.solve(&mut x, &Options::default()).unwrap();
+            assert!(residual(&a, &x, &b) < 1e-12, "{ordering:?} {method:?}");
+            assert_eq!(f.inertia(), Inertia { negative: 0, zero: 0, positive: a.n });
+            assert_eq!(f.method(), method);
+            assert!(f.factor_entries() >= a.n);
+        }
+    }
+}
+
+#[test]
+fn several_right_hand_sides_are_solved_at_once() {
+    let a = Matrix::grid(4, 0.0);
+    let opts = Options::default();
+    let f = Factorization::new(a.view(), Method::Cholesky, &Ordering::Amd, &opts).unwrap();
+    let columns: Vec<Vec<f64>> = (0..3).map(|c| (0..a.n).map(|i| ((i + c) % 5) as f64).collect()).collect();
+    let mut block: Vec<f64> = columns.concat();
+    f.solve(&mut block, &opts).unwrap();
+    for (c, b) in columns.iter().enumerate() {
+        let mut x = b.clone();
+        f.solve(&mut x, &opts).unwrap();
+        assert_eq!(&block[c * a.n..(c + 1) * a.n], &x[..], "column {c}: the block solve is the single solve");
+        assert!(residual(&a, &x, b) < 1e-12);
+    }
+}
+
+#[test]
+fn refactoring_the_same_pattern_matches_a_fresh_factorization_bitwise() {
+    let a = Matrix::grid(4, 0.0);
+    let opts = Options::default();
+    let mut f = Factorization::new(a.view(), Method::Cholesky, &Ordering::Amd, &opts).unwrap();
+    // a time step M - t L: every value changes, the pattern does not
+    let mut b = Matrix { data: a.data.iter().map(|v| 0.3 * v).collect(), indptr: a.indptr.clone(), indices: a.indices.clone(), n: a.n };
+    for i in 0..b.n {
+        for k in b.indptr[i]..b.indptr[i + 1] {
+            if b.indices[k] as usize == i {
+                b.data[k] += 0.01;
+            }
+        }
+    }
+    f.refactor(b.view(), &opts).unwrap();
+    let fresh = Factorization::new(b.view(), Method::Cholesky, &Ordering::Amd, &opts).unwrap();
+    let rhs: Vec<f64> = (0..a.n).map(|i| (i % 3) as f64).collect();
+    let (mut x, mut y) = (rhs.clone(), rhs.clone());
+    f.solve(&mut x, &opts).unwrap();
+    fresh.solve(&mut y, &opts).unwrap();
+    assert_eq!(x, y);
+    assert!(residual(&b, &x, &rhs) < 1e-12);
+    // another pattern is refused, not mis-solved
+    let smaller = Matrix::grid(3, 0.0);
+    assert!(matches!(f.refactor(smaller.view(), &opts), Err(Error::Shape { .. })));
+}
+
+#[test]
+fn the_inertia_of_an_indefinite_matrix_counts_its_negative_eigenvalues() {
+    // -L - s I has as many negative eigenvalues as -L has below s
+    let a = Matrix::grid(3, 0.0);
+    let lam = dense_eigenvalues(&a);
+    let opts = Options::default();
+    for k in [1, 5, 17, 40] {
+        let s = (lam[k - 1] + lam[k]) / 2.0;
+        let shifted = Matrix::grid(3, -s);
+        let f = Factorization::new(shifted.view(), Method::Ldlt, &Ordering::Amd, &opts).unwrap();
+        assert_eq!(f.inertia(), Inertia { negative: k, zero: 0, positive: a.n - k }, "shift between eigenvalues {k} and {}", k + 1);
+        let b: Vec<f64> = (0..a.n).map(|i| (i % 4) as f64 - 1.5).collect();
+        let mut x = b.clone();
+        f.solve(&mut x, &opts).unwrap();
+        assert!(residual(&shifted, &x, &b) < 1e-9);
+        // the Cholesky refuses it, naming a row
+        let err = Factorization::new(shifted.view(), Method::Cholesky, &Ordering::Amd, &opts).unwrap_err();
+        assert!(matches!(err, Error::NotPositiveDefinite { row } if row < a.n), "{err}");
+    }
+}
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let a = Matrix::grid(6, 0.0);
+    let b: Vec<f64> = (0..a.n).map(|i| (i % 9) as f64).collect();
+    let solve = |threads| {
+        let opts = Options { threads: Some(threads), ..Default::default() };
+        let f = Factorization::new(a.view(), Method::Ldlt, &Ordering::Amd, &opts).unwrap();
+        let mut x = b.clone();
+        f.solve(&mut x, &opts).unwrap();
+        x.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    };
+    assert_eq!(solve(1), solve(2));
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let opts = Options::default();
+    let a = Matrix::grid(2, 0.0);
+    // not a permutation, wrong length
+    for order in [vec![0u32; a.n], vec![0, 1]] {
+        assert!(matches!(Factorization::new(a.view(), Method::Cholesky, &Ordering::Custom(order), &opts), Err(Error::Shape { .. })));
+    }
+    // a broken layout
+    let bad = CsrRef { indptr: &a.indptr[..a.n], ..a.view() };
+    assert!(matches!(Factorization::new(bad, Method::Ldlt, &Ordering::Amd, &opts), Err(Error::Shape { .. })));
+    // a zero pivot in LDL^T: [[0, 1], [1, 0]] without pivoting
+    let (indptr, indices, data) = ([0, 1, 2], [1, 0], [1.0, 1.0]);
+    let swap = CsrRef { n: 2, indptr: &indptr, indices: &indices, data: &data };
+    let err = Factorization::new(swap, Method::Ldlt, &Ordering::Identity, &opts).unwrap_err();
+    assert!(matches!(err, Error::Singular { row } if row < 2), "{err}");
+    // a 1 x 1 negative matrix: the failed pivot is named, not an index past the end
+    let (indptr, indices, data) = ([0, 1], [0], [-1.0]);
+    let negative = CsrRef { n: 1, indptr: &indptr, indices: &indices, data: &data };
+    assert_eq!(Factorization::new(negative, Method::Cholesky, &Ordering::Amd, &opts).unwrap_err(), Error::NotPositiveDefinite { row: 0 });
+    // right-hand sides of the wrong length, a bad thread count
+    let f = Factorization::new(a.view(), Method::Cholesky, &Ordering::Amd, &opts).unwrap();
+    assert!(matches!(f.solve(&mut vec![0.0; a.n + 1], &opts), Err(Error::Shape { .. })));
+    let threads = Options { threads: Some(0), ..Default::default() };
+    assert!(matches!(f.solve(&mut vec![0.0; a.n], &threads), Err(Error::Threads { .. })));
+    // cancelled before the work
+    let cancel = tetlap::Cancel::new();
+    cancel.cancel();
+    let cancelled = Options { cancel: Some(cancel), ..Default::default() };
+    assert_eq!(Factorization::new(a.view(), Method::Cholesky, &Ordering::Amd, &cancelled).unwrap_err(), Error::Cancelled);
+}

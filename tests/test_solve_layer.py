@@ -1,0 +1,272 @@
+"""The solver layer of tetlap.solve: every solver= on every function, the "auto" choice and
+its fallbacks, what SolveInfo reports, indefinite operators (never an unchecked CG answer),
+option checks, and vertices in no element (they change no answer)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from scipy.sparse.linalg import spsolve
+
+import tetlap
+from tetlap import diagnostics as d
+from tetlap import solve
+from tetlap.solve import _linear
+
+from conftest import corpus_mesh
+
+GRAD = np.array([1.0, 2.0, -1.0])
+FLUX = lambda centroids, normals: normals @ GRAD  # noqa: E731 (the normal derivative of V @ GRAD)
+
+
+@pytest.fixture(scope="module")
+def ball():
+    return tetlap.meshes.ball(3000, seed=2)
+
+
+@pytest.fixture(scope="module")
+def bunny():
+    pytest.importorskip("meshio")
+    return corpus_mesh("libigl_bunny.mesh")
+
+
+@pytest.mark.parametrize("solver", ["amg", "cholesky", "lu", "auto"])
+@pytest.mark.parametrize("kind", ["primal", "dual"])
+def test_every_solver_solves_the_dirichlet_problem(ball, solver, kind):
+    V, T = ball
+    L, M = tetlap.operators(V, T, kind, "barycentric")
+    fixed = d.boundary_vertices(T, len(V))
+    u = V @ GRAD + 3
+    f, info = solve.dirichlet(L, fixed, u, M @ np.sin(V[:, 0]), solver=solver, return_info=True)
+    free = ~fixed
+    reference = u.copy()
+    reference[free] = spsolve(sp.csc_array(L[free][:, free]),
+                              (M @ np.sin(V[:, 0]))[free] - L[free][:, fixed] @ u[fixed])
+    assert np.abs(f - reference).max() <= 1e-8 * np.abs(reference).max()
+    assert info.solver == (solver if solver != "auto" else "cholesky")
+    assert info.residual <= solve.RESIDUAL_TOL
+    assert set(info.phases) >= {"components", "check"}
+    if solver == "amg":
+        assert info.iterations > 0 and info.ordering == "reverse Cuthill-McKee"
+    if solver == "cholesky":
+        assert info.method == "LL^T" and "METIS" in info.ordering
+
+
+def test_auto_takes_amg_from_its_size_and_reports_it(ball, monkeypatch):
+    V, T = ball
+    L = tetlap.laplacian(V, T, "dual")
+    fixed = d.boundary_vertices(T, len(V))
+    monkeypatch.setattr(_linear, "AUTO_AMG_MIN", 100)
+    f, info = solve.dirichlet(L, fixed, V[:, 0], return_info=True)
+    assert info.solver == "amg" and not info.fallbacks
+    assert info.certified is _linear.certified(-L[~fixed][:, ~fixed])
+    assert np.abs(f - V[:, 0]).max() < 1e-8
+    # bitwise the same on a second run (pyamg's set-up and CG are serial)
+    assert np.array_equal(f, solve.dirichlet(L, fixed, V[:, 0]))
+
+
+def test_the_diagonal_dominance_certificate():
+    A = sp.csr_array(np.array([[2.0, -1.0, -1.0], [-1.0, 2.0, -1.0], [-1.0, -1.0, 2.0]]))
+    assert _linear.certified(A)
+    assert not _linear.certified(A - 0.01 * sp.eye_array(3))
+    assert _linear.certified(sp.csr_array(np.array([[1.0, 1.0], [1.0, 1.0]])))  # PSD, signs free
+
+
+def test_an_indefinite_dual_gets_a_checked_direct_solution_or_an_error(bunny, monkeypatch):
+    V, T = bunny
+    L = tetlap.laplacian(V, T, "dual")
+    assert tetlap.check(L, V, T, kind="dual").nsd is False
+    fixed = d.boundary_vertices(T, len(V))
+    free = ~fixed
+    A = -L[free][:, free]
+    lam = np.linalg.eigvalsh(A.toarray())
+    assert lam[0] < 0  # the Dirichlet block itself is indefinite
+    assert not _linear.certified(A)
+    monkeypatch.setattr(_linear, "AUTO_AMG_MIN", 0)  # auto tries CG first
+    u = np.sin(V[:, 0]) + V[:, 1]
+    reference = u.copy()
+    reference[free] = spsolve(sp.csc_array(L[free][:, free]), -L[free][:, fixed] @ u[fixed])
+    f, info = solve.dirichlet(L, fixed, u, return_info=True)
+    assert info.solver in ("cholesky", "lu"), info
+    assert info.fallbacks and info.fallbacks[0].startswith("amg:")
+    assert np.abs(f - reference).max() <= 1e-8 * np.abs(reference).max()
+    # CG asked for by name: an answer only if it passes the residual check, else an error
+    try:
+        g, info = solve.dirichlet(L, fixed, u, solver="amg", return_info=True)
+    except tetlap.SolveError as e:
+        assert "curvature" in str(e) or "residual" in str(e) or "converge" in str(e)
+    else:
+        assert info.residual <= solve.RESIDUAL_TOL
+        assert np.abs(g - reference).max() <= 1e-6 * np.abs(reference).max()
+
+
+def test_factorize_solves_vectors_and_blocks_and_refactors(ball):
+    V, T = ball
+    L, M = tetlap.operators(V, T, "primal", "barycentric")
+    A = M - 0.01 * L
+    F = solve.factorize(A)
+    assert (F.info.solver, F.info.method) == ("cholesky", "LL^T")
+    b = np.cos(V @ GRAD)
+    np.testing.assert_allclose(F.solve(b), spsolve(sp.csc_array(A), b), rtol=1e-10)
+    B = np.column_stack([b, V[:, 0], np.ones(len(V))])
+    X = F.solve(B)
+    assert X.shape == B.shape
+    np.testing.assert_allclose(X[:, 0], F.solve(b), rtol=1e-12)  # block kernels: not bitwise
+    # a new time step: same pattern, the symbolic analysis reused
+    A2 = M - 0.05 * L
+    F.refactor(A2)
+    np.testing.assert_allclose(F.solve(b), spsolve(sp.csc_array(A2), b), rtol=1e-10)
+    assert F.inertia() == (0, 0, len(V))
+    # entries may be missing (a diagonal), none may be added
+    F.refactor(M)
+    np.testing.assert_allclose(F.solve(b), b / M.diagonal(), rtol=1e-12)
+    with pytest.raises(tetlap.ShapeError):
+        F.refactor(A2 + sp.csr_array(([1.0], ([0], [len(V) - 1])), shape=A.shape))
+    with pytest.raises(tetlap.ShapeError):
+        F.solve(np.ones(len(V) + 1))
+    with pytest.raises(tetlap.NonFiniteError):
+        F.solve(np.full(len(V), np.nan))
+    lu = solve.factorize(A, solver="lu")
+    np.testing.assert_allclose(lu.solve(b), spsolve(sp.csc_array(A), b), rtol=1e-10)
+
+
+def test_the_inertia_counts_eigenvalues_below_a_shift(ball):
+    V, T = tetlap.meshes.ball(600, seed=3)
+    L, M = tetlap.operators(V, T, "primal", "barycentric")
+    fixed = d.boundary_vertices(T, len(V))
+    A, B = -L[~fixed][:, ~fixed], M[~fixed][:, ~fixed]
+    from scipy.linalg import eigh
+
+    lam = eigh(A.toarray(), B.toarray(), eigvals_only=True)
+    for j in (1, 4, 20, 100):
+        s = (lam[j - 1] + lam[j]) / 2
+        F = solve.factorize(A - s * B)
+        assert F.info.method == "LDL^T"
+        assert F.inertia() == (j, 0, len(lam) - j)
+    with pytest.raises(tetlap.OptionError):
+        solve.factorize(A, solver="lu").inertia()
+
+
+def test_a_non_symmetric_matrix_is_factorized_by_lu():
+    A = sp.csr_array(np.array([[4.0, 1.0], [0.0, 3.0]]))
+    F = solve.factorize(A)
+    assert F.info.solver == "lu"
+    np.testing.assert_allclose(F.solve(np.array([5.0, 3.0])), [1.0, 1.0])
+    with pytest.raises(tetlap.OptionError):
+        solve.factorize(A, solver="cholesky")
+    with pytest.raises(tetlap.SolveError):
+        solve.factorize(sp.csr_array(np.array([[1.0, 2.0], [2.0, 4.0]])), solver="lu")
+
+
+@pytest.mark.parametrize("call", [
+    lambda L, g, f: solve.neumann(L, g, rtol=np.nan),
+    lambda L, g, f: solve.neumann(L, g, rtol=np.inf),
+    lambda L, g, f: solve.neumann(L, g, rtol=-1e-3),
+    lambda L, g, f: solve.neumann(L, g, rtol="1e-6"),
+    lambda L, g, f: solve.neumann(L, g, solver="cg"),
+    lambda L, g, f: solve.dirichlet(L, f, 0.0, solver=None),
+    lambda L, g, f: solve.dirichlet(L, f, 0.0, progress="yes"),
+    lambda L, g, f: solve.dirichlet(L, f, 0.0, method="replace", solver="amg"),
+    lambda L, g, f: solve.eigs(L, L, 3, f, sigma=np.nan),
+    lambda L, g, f: solve.eigs(L, L, 3, f, sigma=True),
+    lambda L, g, f: solve.eigs(L, L, 0, f),
+    lambda L, g, f: solve.eigs(L, L, 3, f, solver="fast"),
+    lambda L, g, f: solve.factorize(L, ordering="metis"),
+    lambda L, g, f: solve.factorize(L, solver="amg"),
+])
+def test_every_option_is_checked(call):
+    V, T = tetlap.meshes.cube(3)
+    L = tetlap.laplacian(V, T)
+    with pytest.raises(tetlap.OptionError):
+        call(L, solve.fem_boundary_areas(V, T, GRAD), d.boundary_vertices(T, len(V)))
+
+
+def _with_far_vertex(V, T, far=1e150):
+    return np.vstack([V, [[far, -far, far]]]), T
+
+
+def test_a_far_unused_vertex_changes_no_answer(ball):
+    V, T = tetlap.meshes.ball(800, seed=4)
+    V2, T2 = _with_far_vertex(V, T)
+    n = len(V)
+    for kind in ("primal", "dual"):
+        L, M = tetlap.operators(V, T, kind, "barycentric")
+        L2, M2 = tetlap.operators(V2, T2, kind, "barycentric")
+        fixed = d.boundary_vertices(T, n)
+        fixed2 = d.boundary_vertices(T2, n + 1)
+        u = V @ GRAD
+        for solver in ("amg", "cholesky", "lu"):
+            a = solve.dirichlet(L, fixed, u, solver=solver)
+            b = solve.dirichlet(L2, fixed2, np.r_[u, 1e300], solver=solver)
+            assert np.array_equal(a, b[:n]) and b[n] == 0
+        g, g2 = (solve.fem_boundary_areas(W, T, GRAD) for W in (V, V2))
+        a, b = solve.neumann(L, g), solve.neumann(L2, g2)
+        assert np.array_equal(a, b[:n]) and b[n] == 0
+        lam, vec = solve.eigs(L, M, 4, fixed)
+        lam2, vec2 = solve.eigs(L2, M2, 4, fixed2)
+        assert np.array_equal(lam, lam2) and (vec2[n] == 0).all()
+    L, L2 = tetlap.laplacian(V, T), tetlap.laplacian(V2, T2)
+    a = solve.neumann_primal_kkt(L, V, T, FLUX)
+    b = solve.neumann_primal_kkt(L2, V2, T2, FLUX)
+    np.testing.assert_allclose(a, b[:n], atol=1e-12)
+    assert b[n] == 0
+
+
+def test_kkt_gauges_every_component_and_leaves_unused_vertices_at_zero():
+    V, T = tetlap.meshes.cube(3, jitter=0.2, seed=1)
+    n = len(V)
+    V2 = np.vstack([V, V + 4, [[50.0, 0.0, 0.0]]])
+    T2 = np.vstack([T, T + n])
+    L2 = tetlap.laplacian(V2, T2)
+    f = solve.neumann_primal_kkt(L2, V2, T2, FLUX)
+    u = V2 @ GRAD
+    for part in (slice(0, n), slice(n, 2 * n)):
+        np.testing.assert_allclose(f[part], u[part] - u[part].mean(), atol=1e-10)
+    assert f[-1] == 0
+    g = solve.neumann_primal_kkt(L2, V2, T2, FLUX, gauge=n + 2)
+    assert abs(g[n + 2]) < 1e-12
+    np.testing.assert_allclose(g[:n], u[:n] - u[:n].mean(), atol=1e-10)
+    np.testing.assert_allclose(g[n:2 * n], u[n:2 * n] - u[n + 2], atol=1e-10)
+    with pytest.raises(tetlap.OptionError):
+        solve.neumann_primal_kkt(L2, V2, T2, FLUX, gauge=2 * n)
+    with pytest.raises(tetlap.OptionError):
+        solve.neumann_primal_kkt(L2, V2, T2, FLUX, solver="amg")
+    h, info = solve.neumann_primal_kkt(L2, V2, T2, FLUX, solver="lu", return_info=True)
+    assert info.solver == "lu" and np.array_equal(h, f)
+
+
+@pytest.mark.parametrize("solver", ["auto", "amg", "cholesky", "lu"])
+def test_neumann_with_every_solver(ball, solver):
+    V, T = ball
+    L = tetlap.laplacian(V, T, "dual")
+    u = V @ GRAD
+    f, info = solve.neumann(L, solve.dual_boundary_areas(V, T, GRAD), solver=solver,
+                            return_info=True)
+    assert np.abs(f - (u - u.mean())).max() < 1e-8
+    assert info.residual <= solve.RESIDUAL_TOL
+
+
+def test_metis_in_a_child_process_gives_the_same_order(monkeypatch, tmp_path):
+    from tetlap.solve import factor
+
+    V, T = tetlap.meshes.cube(6)
+    A = factor.canonical(-tetlap.laplacian(V, T) + sp.eye_array(len(V)))
+    here = factor.nested_dissection(A)
+    monkeypatch.setattr(factor, "METIS_CHILD_MIN", 0)
+    assert np.array_equal(factor.nested_dissection(A), here)
+    # a user's script without a main guard is not run again by the child
+    script = tmp_path / "user.py"
+    script.write_text("import numpy as np, scipy.sparse as sp, tetlap\n"
+                      "from tetlap.solve import factor\n"
+                      "factor.METIS_CHILD_MIN = 0\n"
+                      "V, T = tetlap.meshes.cube(4)\n"
+                      "print('run', flush=True)\n"
+                      "F = tetlap.solve.factorize(sp.eye_array(len(V)) - tetlap.laplacian(V, T))\n"
+                      "print(F.info.ordering)\n")
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split("\n")[:2] == ["run", "nested dissection (METIS)"]
