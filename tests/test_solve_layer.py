@@ -131,6 +131,35 @@ def test_factorize_solves_vectors_and_blocks_and_refactors(ball):
     np.testing.assert_allclose(lu.solve(b), spsolve(sp.csc_array(A), b), rtol=1e-10)
 
 
+def test_a_given_ordering_is_used_and_changes_the_answer_by_rounding_only(ball):
+    V, T = ball
+    L, M = tetlap.operators(V, T, "primal", "barycentric")
+    A = M - 0.01 * L
+    F = solve.factorize(A)
+    perm = F.permutation
+    assert sorted(perm) == list(range(len(V)))
+    b = np.cos(V @ GRAD)
+    for ordering in (perm, perm[::-1].copy(), np.arange(len(V))):
+        G = solve.factorize(A, ordering=ordering)
+        assert G.info.ordering == "given"
+        np.testing.assert_array_equal(G.permutation, ordering)
+        np.testing.assert_allclose(G.solve(b), F.solve(b), rtol=1e-12)
+    assert solve.factorize(A, ordering="amd").permutation is None
+
+
+def test_heat_distance_orders_the_mesh_once(ball, monkeypatch):
+    from tetlap.solve import factor
+
+    calls = []
+    real = factor.nested_dissection
+    monkeypatch.setattr(factor, "nested_dissection", lambda A: calls.append(A.shape) or real(A))
+    for boundary, factorizations in (("neumann", 2), ("average", 3)):
+        calls.clear()
+        heat = tetlap.HeatDistance(*ball, boundary=boundary)
+        assert heat.n_factorizations == factorizations
+        assert calls == [(len(ball[0]),) * 2]
+
+
 def test_the_inertia_counts_eigenvalues_below_a_shift(ball):
     V, T = tetlap.meshes.ball(600, seed=3)
     L, M = tetlap.operators(V, T, "primal", "barycentric")
@@ -174,6 +203,11 @@ def test_a_non_symmetric_matrix_is_factorized_by_lu():
     lambda L, g, f: solve.eigs(L, L, 3, f, solver="fast"),
     lambda L, g, f: solve.factorize(L, ordering="metis"),
     lambda L, g, f: solve.factorize(L, solver="amg"),
+    lambda L, g, f: solve.factorize(-L + sp.eye_array(L.shape[0]), ordering=np.zeros(L.shape[0], int)),
+    lambda L, g, f: solve.factorize(-L + sp.eye_array(L.shape[0]), ordering=np.arange(L.shape[0] - 1)),
+    lambda L, g, f: solve.factorize(-L + sp.eye_array(L.shape[0]), ordering=np.arange(L.shape[0]) + 0.0),
+    lambda L, g, f: solve.factorize(-L + sp.eye_array(L.shape[0]), solver="lu",
+                                    ordering=np.arange(L.shape[0])),
 ])
 def test_every_option_is_checked(call):
     V, T = tetlap.meshes.cube(3)

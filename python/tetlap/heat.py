@@ -165,7 +165,9 @@ class HeatDistance:
                                   weights=weights, degenerate=degenerate, threads=threads)
         g, vol = calculus.element_gradients(V, T, degenerate=degenerate, threads=threads)
         self._G = calculus._operator(g, T, n)
-        self._D = calculus._divergence(self._G, vol)
+        # the divergence D = -G^T diag(vol (x) 1_d), applied through G's transpose (a CSC
+        # view, no copy) rather than built
+        self._vol = np.repeat(vol, V.shape[1])
         self._d = V.shape[1]
         # what takes part: the vertices and edges of elements that are not skipped
         live = T[vol > 0]
@@ -185,25 +187,38 @@ class HeatDistance:
         A = sp.csr_array(M - self.t * L)
         used = np.flatnonzero(self._used)
         self._factors = 0
+        self._order = None    # vertices in the elimination order of the first factorization
         if boundary != "dirichlet":
-            self._heat_neumann = (used, self._factor(A[used][:, used]))
+            self._heat_neumann = (used, self._factor(A, used))
         if boundary != "neumann":
             on_boundary = _boundary_vertices(live, n)
             inner = np.flatnonzero(self._used & ~on_boundary)
             self._diagonal = A.diagonal()
             self._A_inner = A[inner]          # the rows of the inner vertices, for the rhs
             self._on_boundary = on_boundary
-            self._heat_dirichlet = (inner, self._factor(A[inner][:, inner]) if len(inner) else None)
+            self._heat_dirichlet = (inner, self._factor(A, inner) if len(inner) else None)
         # the Poisson step: one vertex pinned per component (L's null space is constants)
         pinned = np.zeros(n, dtype=bool)
         pinned[used[np.unique(self._labels[used], return_index=True)[1]]] = True
         free = np.flatnonzero(self._used & ~pinned)
-        self._poisson = (free, self._factor(-L[free][:, free]) if len(free) else None)
+        self._poisson = (free, self._factor(-L, free) if len(free) else None)
         self.n_factorizations = self._factors
 
-    def _factor(self, A):
+    def _factor(self, A, rows: np.ndarray):
+        """The factorization of ``A[rows][:, rows]``. The first one's nested dissection is
+        kept as an order of vertices and restricted to the later ones' rows (the same
+        graph less a few vertices), so that the set-up orders the mesh once."""
         self._factors += 1
-        return factorize(sp.csc_array(A))
+        ordering = "auto"
+        if self._order is not None:
+            rank = np.full(self.n, -1, dtype=np.int64)
+            rank[self._order] = np.arange(len(self._order))
+            if (rank[rows] >= 0).all():
+                ordering = np.argsort(rank[rows], kind="stable")
+        F = factorize(A[rows][:, rows], ordering=ordering)
+        if self._order is None and F.permutation is not None:
+            self._order = rows[F.permutation]
+        return F
 
     def _heat(self, s: np.ndarray) -> np.ndarray:
         """``u`` of the heat step from the sources ``s``."""
@@ -255,7 +270,7 @@ class HeatDistance:
         grad = (self._G @ u).reshape(-1, self._d)
         norm = np.linalg.norm(grad, axis=1)
         X = np.divide(-grad, norm[:, None], out=np.zeros_like(grad), where=norm[:, None] > 0)
-        b = self._D @ X.reshape(-1)
+        b = -(self._G.T @ (self._vol * X.reshape(-1)))
         free, factor = self._poisson
         phi = np.zeros(self.n)
         if factor is not None:

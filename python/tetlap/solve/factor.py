@@ -87,7 +87,7 @@ class Factor:
     counts the eigenvalue signs; ``info`` is a :class:`tetlap.solve.SolveInfo`.
     """
 
-    def __init__(self, A: sp.csr_array, solver: str, ordering: str, progress,
+    def __init__(self, A: sp.csr_array, solver: str, ordering, progress,
                  method: str = "auto") -> None:
         A = canonical(A)
         self.n = A.shape[0]
@@ -105,13 +105,17 @@ class Factor:
 
     def _factor_core(self, A, ordering, method):
         stages = Stages("factorize", self._progress)
-        if ordering in ("auto", "nd"):
-            stages("nested dissection")
-            with self.info.phase("ordering"):
-                self._order = nested_dissection(A)
-            if self._order is None and ordering == "nd":
-                raise OptionError('ordering="nd" needs pymetis (pip install pymetis)')
-        self.info.ordering = "amd" if self._order is None else "nested dissection (METIS)"
+        if not isinstance(ordering, str):
+            self._order = ordering
+            self.info.ordering = "given"
+        else:
+            if ordering in ("auto", "nd"):
+                stages("nested dissection")
+                with self.info.phase("ordering"):
+                    self._order = nested_dissection(A)
+                if self._order is None and ordering == "nd":
+                    raise OptionError('ordering="nd" needs pymetis (pip install pymetis)')
+            self.info.ordering = "amd" if self._order is None else "nested dissection (METIS)"
         stages("factorization")
         with self.info.phase("factorization"):
             try:
@@ -192,6 +196,14 @@ class Factor:
             _checks.accept(self._A, x, flat, "factorized system", self.info, self._norm)
         return x.reshape(arr.shape)
 
+    @property
+    def permutation(self) -> np.ndarray | None:
+        """The fill-reducing order of the cholesky factorization (int64 ``(n,)``: entry
+        ``k`` is the row eliminated ``k``-th; a copy), or None (faer's AMD, or ``"lu"``).
+        Pass it (restricted and renumbered as needed) as ``ordering=`` of another
+        factorization of the same graph to skip the nested dissection."""
+        return None if self._order is None else self._order.copy()
+
     def inertia(self) -> tuple[int, int, int]:
         """``(negative, zero, positive)`` pivots of the ``LDL^T`` (``LL^T``: all positive):
         by Sylvester's law of inertia, the eigenvalue signs of the matrix. Not available
@@ -222,7 +234,28 @@ def _within(A: sp.csr_array, pattern: sp.csr_array) -> np.ndarray:
     return data
 
 
-def factorize(A, *, solver: str = "auto", ordering: str = "auto", progress=None) -> Factor:
+def _ordering(ordering, n: int):
+    """``ordering`` checked: one of :data:`ORDERINGS`, or a permutation of ``0..n-1`` as
+    a new int64 array."""
+    if isinstance(ordering, str):
+        if ordering not in ORDERINGS:
+            raise OptionError(f"ordering must be one of {', '.join(map(repr, ORDERINGS))} or a "
+                              f"permutation, got {ordering!r}")
+        return ordering
+    perm = _arrays._as_array(ordering, "ordering")
+    if perm.dtype.kind not in "iu" or perm.shape != (n,):
+        raise OptionError(f"ordering must be one of {', '.join(map(repr, ORDERINGS))} or a "
+                          f"permutation of 0..{n - 1} (an integer array of shape ({n},))")
+    perm = perm.astype(np.int64)
+    seen = np.zeros(n, dtype=bool)
+    inside = (perm >= 0) & (perm < n)
+    seen[perm[inside]] = True
+    if not (inside.all() and seen.all()):
+        raise OptionError(f"ordering is not a permutation of 0..{n - 1}")
+    return perm
+
+
+def factorize(A, *, solver: str = "auto", ordering="auto", progress=None) -> Factor:
     """A reusable factorization of the square sparse matrix ``A``.
 
     Parameters
@@ -234,9 +267,11 @@ def factorize(A, *, solver: str = "auto", ordering: str = "auto", progress=None)
         ``LDL^T`` (no pivoting) when the ``LL^T`` finds it indefinite; ``"lu"``: SciPy's
         SuperLU (any square matrix, far more fill on 3-D meshes); ``"auto"``: cholesky for
         symmetric matrices, else lu. ``"amg"`` is not a factorization.
-    ordering : {"auto", "nd", "amd"}, default "auto"
+    ordering : {"auto", "nd", "amd"} or (n,) integer array, default "auto"
         The fill-reducing ordering of the cholesky factorization: METIS nested dissection
-        (``"nd"``; ``"auto"`` uses it when pymetis is installed) or faer's AMD.
+        (``"nd"``; ``"auto"`` uses it when pymetis is installed), faer's AMD, or a
+        permutation of ``0..n-1`` (entry ``k`` the row eliminated ``k``-th), such as the
+        :attr:`Factor.permutation` of a factorization of the same graph.
     progress : bool, optional
         Report the phases on stderr (default: when stderr is a terminal).
 
@@ -252,12 +287,14 @@ def factorize(A, *, solver: str = "auto", ordering: str = "auto", progress=None)
     """
     A = _arrays.matrix(A, None, "A")
     _checks.solver(solver, ("auto", "cholesky", "lu"))
-    if not isinstance(ordering, str) or ordering not in ORDERINGS:
-        raise OptionError(f"ordering must be one of {', '.join(map(repr, ORDERINGS))}, got {ordering!r}")
+    ordering = _ordering(ordering, A.shape[0])
     _checks.flag(progress, "progress")
     symmetric = _symmetric(A)
     if solver == "cholesky" and not symmetric:
         raise OptionError('solver="cholesky" needs a symmetric matrix; use solver="lu"')
     if solver == "auto":
         solver = "cholesky" if symmetric else "lu"
+    if not isinstance(ordering, str) and solver == "lu":
+        raise OptionError("a permutation as ordering= is for the cholesky factorization of a "
+                          "symmetric matrix")
     return Factor(A, solver, ordering, progress)
