@@ -2,7 +2,7 @@
 //! gradient operator's kernels (`grad f = sum_a f_a grad(lambda_a)` on the element).
 //!
 //! A tet's gradients are its face normals over its determinant, `grad(lambda_l) = n_l /
-//! det` ([`Frame`](super::tet::Frame), the same quantities the primal weights are built
+//! det` (the tet's frame of face normals, the same quantities the primal weights are built
 //! from: `w_ab = -Vol grad(lambda_a) . grad(lambda_b)`), computed in the tet's scaled frame
 //! ([`local_tet`]) with its correctly rounded determinant and mapped back to R^d for an
 //! immersed tet. A triangle's are the perpendiculars of its edges over its determinant, in
