@@ -76,7 +76,7 @@ def run(args) -> int:
     from ..heat import HeatDistance, _sources
     from . import _mesh
 
-    step = Stages("tetlap geodesic")
+    step = Stages("tetlap geodesic", True)   # stderr; a line per step when not a terminal
     step("read")
     V, T, source = _mesh.load(args.mesh)
     used = np.zeros(len(V), dtype=bool)

@@ -45,9 +45,13 @@ def check(args) -> None:
 
 def run(args) -> int:
     from .. import info
+    from .._progress import Stages
 
+    step = Stages("tetlap info", not args.json)   # stderr; a line per step when not a terminal
+    step("read the mesh" if args.mesh else "make the built-in mesh")
     V, T, source = _mesh.load(args.mesh)
-    result = info.report(V, T, nsd=not args.no_nsd, progress=None if not args.json else False,
+    step.done()
+    result = info.report(V, T, nsd=not args.no_nsd, progress=not args.json,
                          regular=not args.no_regular, regular_time_limit=args.regular_time)
     if args.json:
         print(_output.json_document({"schema_version": result["schema_version"],
