@@ -43,8 +43,9 @@ def test_pyvista_reads_the_field(cube_file, tmp_path):
     (["--source", "0", "--time", "nan"], "--time must be a positive number"),
     (["--source", "0", "--threads", "0"], "--threads"),
     (["--source", "0", "--laplacian", "cotan"], "--laplacian"),
-    (["--source", "0", "--out", "/nonexistent/dir/f.vtu"], "--out /nonexistent/dir/f.vtu: cannot be written"),
-    (["--source", "0", "--out", "f.txt"], "not a mesh format's extension"),
+    (["--source", "0", "--out", "/proc/nonexistent/f.vtu"], "--out /proc/nonexistent/f.vtu: cannot be written"),
+    (["--source", "0", "--out", "f.txt"], "not a mesh format meshio writes tets in"),
+    (["--source", "0", "--out", "f.stl"], "not a mesh format that holds tets"),
     (["--source", "100000"], "--source: sources holds 100000"),
 ])
 def test_bad_flags_are_one_line_errors_before_any_work(cube_file, flags, message, tmp_path):
@@ -53,7 +54,7 @@ def test_bad_flags_are_one_line_errors_before_any_work(cube_file, flags, message
     *steps, last = r.stderr.strip().splitlines()
     assert steps in ([], ["tetlap geodesic: read ..."])   # the source needs the mesh
     assert last.startswith("tetlap: error: ") and message in last
-    assert not (tmp_path / "f.txt").exists()
+    assert not (tmp_path / "f.txt").exists() and not (tmp_path / "f.stl").exists()
 
 
 def test_an_existing_output_is_kept_when_a_later_check_fails(cube_file, tmp_path):

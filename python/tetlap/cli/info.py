@@ -6,7 +6,7 @@ from __future__ import annotations
 import sys
 
 from .. import _options
-from . import _mesh, _output
+from . import _mesh, _output, _paths
 
 NAME = "info"
 HELP = "the mesh and the Table 1 properties of both Laplacians"
@@ -34,13 +34,14 @@ def arguments(p) -> None:
 
 
 def check(args) -> None:
-    """The flags, and matplotlib for ``--plot``, before the mesh is read."""
+    """The flags, and matplotlib and the folder for ``--plot``, before the mesh is read."""
     from .. import info
 
     if args.regular_time is not None:
         _options.positive(args.regular_time, "--regular-time")
-    if args.plot:
+    if args.plot is not None:
         info.pyplot()
+        _paths.output_folder(args.plot, "--plot", info.plot_names(_mesh.name(args.mesh)))
 
 
 def run(args) -> int:
@@ -58,8 +59,8 @@ def run(args) -> int:
                                      "source": source, **result}))
     else:
         print(_output.info_report(result, source))
-    if args.plot:
+    if args.plot is not None:
         files = info.plot(V, T, args.plot, name=_mesh.name(args.mesh))
-        print(f"plots: {', '.join(str(p) for p in files)}",
+        print(f"plots: {', '.join(_paths.shown(p) for p in files)}",
               file=sys.stderr if args.json else sys.stdout)
     return 0
