@@ -64,7 +64,7 @@ from .errors import ShapeError
 from .analysis import negative_weights
 
 __all__ = ["improve", "Improvement", "Objective", "keep_orientation",
-           "fewest_negative_weights", "dual_statistics"]
+           "fewest_negative_weights", "dual_statistics", "MAX_MARGIN"]
 
 #: Tets may lose this fraction of their quality before the barrier acts.
 R0 = 0.5
