@@ -11,8 +11,7 @@ this process; then `tetlap info` on the mesh written as a
 interpreter start-up and reading the file included), with that process's peak resident
 memory (its `VmHWM` at exit: `ru_maxrss` would count the parent's pages at the fork). Then the exponent `p` of
 `time ~ size^p` fitted by least squares over the sizes of at least 100k tets (1 means
-linear; below, fixed costs dominate: the dense eigenvalues of `check` up to 2,500
-vertices, the interpreter start-up of the process). `igl.cotmatrix` on the same mesh is
+linear; below, fixed costs dominate: the interpreter start-up of the process). `igl.cotmatrix` on the same mesh is
 timed too when libigl is installed, for the target "info in less than 5 calls of
 igl.cotmatrix".
 """

@@ -17,6 +17,9 @@ def test_writes_the_distance_as_point_data(cube_file, tmp_path):
     r = run_tetlap("geodesic", str(cube_file), "--source", "0", "--source", "3", "--out", str(out))
     assert r.returncode == 0, r.stderr
     assert "written" in r.stdout and "0 vertices unreachable" in r.stdout
+    # issue 30.10: the steps on stderr, one whole line each when it is not a terminal
+    assert r.stderr.splitlines() == [f"tetlap geodesic: {step} ..." for step in (
+        "read", "set-up: assemble, factorize", "distance", "write")]
     mesh = meshio.read(out)
     d = np.asarray(mesh.point_data["distance"])
     assert np.array_equal(mesh.points, V)
@@ -40,16 +43,18 @@ def test_pyvista_reads_the_field(cube_file, tmp_path):
     (["--source", "0", "--time", "nan"], "--time must be a positive number"),
     (["--source", "0", "--threads", "0"], "--threads"),
     (["--source", "0", "--laplacian", "cotan"], "--laplacian"),
-    (["--source", "0", "--out", "/nonexistent/dir/f.vtu"], "--out /nonexistent/dir/f.vtu: cannot be written"),
-    (["--source", "0", "--out", "f.txt"], "not a mesh format's extension"),
+    (["--source", "0", "--out", "/proc/nonexistent/f.vtu"], "--out /proc/nonexistent/f.vtu: cannot be written"),
+    (["--source", "0", "--out", "f.txt"], "not a mesh format meshio writes tets in"),
+    (["--source", "0", "--out", "f.stl"], "not a mesh format that holds tets"),
     (["--source", "100000"], "--source: sources holds 100000"),
 ])
 def test_bad_flags_are_one_line_errors_before_any_work(cube_file, flags, message, tmp_path):
     r = run_tetlap("geodesic", str(cube_file[0]), *flags, cwd=tmp_path)
     assert r.returncode == 2 and r.stdout == ""
-    lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("tetlap: error: ") and message in lines[0]
-    assert not (tmp_path / "f.txt").exists()
+    *steps, last = r.stderr.strip().splitlines()
+    assert steps in ([], ["tetlap geodesic: read ..."])   # the source needs the mesh
+    assert last.startswith("tetlap: error: ") and message in last
+    assert not (tmp_path / "f.txt").exists() and not (tmp_path / "f.stl").exists()
 
 
 def test_an_existing_output_is_kept_when_a_later_check_fails(cube_file, tmp_path):

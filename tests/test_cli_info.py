@@ -50,6 +50,41 @@ def test_info_json_on_the_built_in_mesh():
     check_report_of_a_delaunay_ball(result, *tetlap.meshes.ball(2000, seed=0))
 
 
+def test_the_built_in_mesh_is_decided_without_dense_eigenvalues(monkeypatch, capsys):
+    """Issue 30.10: dense eigenvalues of the 2,000-vertex ball were 95% of the 15-20 s of
+    `tetlap info`; the element certificates decide both Laplacians (in 0.05 s)."""
+    import numpy as np
+
+    def dense(*args, **kwargs):
+        raise AssertionError("dense eigenvalues computed")
+
+    monkeypatch.setattr(np.linalg, "eigvalsh", dense)
+    assert cli.main(["info", "--json", "--no-regular"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    for kind in ("primal", "dual"):
+        assert result[kind]["nsd"] is True
+        assert result[kind]["nsd_method"].startswith("element certificate: L is the "
+                                                     f"{kind} Laplacian")
+
+
+def test_progress_is_one_line_per_step_on_stderr_when_it_is_not_a_terminal():
+    """Issue 30.10: `tetlap info` was silent in a pipe; now each step is a whole line on
+    stderr (no carriage returns, no partial lines), and stdout holds the report alone.
+    With --json, stderr stays quiet."""
+    out = run("info", "--no-regular")
+    assert out.returncode == 0, out.stderr
+    assert "\r" not in out.stderr and out.stderr.endswith("...\n")
+    assert out.stderr.splitlines() == [
+        "tetlap info: make the built-in mesh ...", "tetlap info: mesh diagnostics ...",
+        "tetlap info: primal Laplacian and barycentric mass ...",
+        "tetlap info: checks of the primal Laplacian ...",
+        "tetlap info: dual Laplacian and circumcentric mass ...",
+        "tetlap info: checks of the dual Laplacian ..."]
+    assert out.stdout.startswith("mesh: ") and "tetlap info:" not in out.stdout
+    quiet = run("info", "--json", "--no-regular", "--no-nsd")
+    assert quiet.returncode == 0 and quiet.stderr == ""
+
+
 def test_info_table_is_human_readable():
     out = run("info", "--no-nsd")
     assert out.returncode == 0, out.stderr
@@ -86,7 +121,7 @@ def test_info_table_of_a_file(cube_file, capsys):
     assert header.split() == ["property", "primal", "dual"]
     nsd_row = next(line for line in lines if line.startswith("negative semidefinite"))
     assert nsd_row.split()[-2:] == ["yes", "yes"]  # a Kuhn-type grid: both NSD
-    assert "semidefinite (primal): dense eigenvalues" in out
+    assert "semidefinite (primal): element certificate: L is the primal Laplacian" in out
     assert "mesh diagnostics" not in out  # progress (if any) goes to stderr
 
 
@@ -122,7 +157,8 @@ def test_a_mesh_beyond_the_float_range_is_refused_naming_the_limit(scale, given_
     for flags in (["--json"], []):
         assert cli.main(["info", *flags]) == 2
         out, err = capsys.readouterr()
-        assert out == "" and err.count("\n") == 1
+        *steps, err = err.splitlines()   # the text report's steps come first
+        assert out == "" and steps == ([] if flags else ["tetlap info: make the built-in mesh ..."])
         assert err.startswith("tetlap: error: tet 0 has volume ") and "float64 range" in err
         assert "1e-100 to 1e100" in err
 

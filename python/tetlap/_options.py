@@ -19,7 +19,7 @@ import numbers
 
 from .errors import OptionError
 
-__all__ = ["positive", "non_negative", "count", "threads"]
+__all__ = ["positive", "non_negative", "count", "threads", "at_most", "MAX_SECONDS"]
 
 
 def _real(value) -> bool:
@@ -58,4 +58,17 @@ def threads(value, name: str = "threads"):
         _core.check_options({"threads": value})
     except OptionError as e:
         raise OptionError(str(e) if name == "threads" else f"{name}: {e}") from None
+    return value
+
+
+#: The longest time limit an option takes, in seconds (11.6 days): the operating system's
+#: timers overflow from about 2.1e6 s (a C int of milliseconds), Python's from 9.2e9 s.
+MAX_SECONDS = 1e6
+
+
+def at_most(value, most, name: str):
+    """``value`` (a number, already checked) if it is at most ``most``: for the options
+    whose larger values overflow a timer or a float, or repeat work for ever."""
+    if value > most:
+        raise OptionError(f"{name} must be at most {most:g}")
     return value

@@ -1,5 +1,6 @@
 """Progress output on stderr: a bar over items (tqdm when installed) and named stages of a
-long computation. Quiet when stderr is not a terminal, so logs get no ``\\r`` updates."""
+long computation. Logs get no ``\\r`` updates: the bar is quiet when stderr is not a
+terminal, and stages are whole lines there."""
 
 from __future__ import annotations
 
@@ -33,12 +34,15 @@ def bar(items: Iterable[T], total: int | None = None, desc: str = "") -> Iterato
 
 
 class Stages:
-    """Named steps of one computation, each reported on stderr with its duration when it
-    ends (only when stderr is a terminal, or when ``enabled=True``)."""
+    """Named steps of one computation, reported on stderr when enabled (by default, when
+    stderr is a terminal): on a terminal each step's line ends with its duration when it
+    ends; elsewhere (a pipe, a log file) each step is one whole line when it starts, so
+    that a log never holds a partial line."""
 
     def __init__(self, title: str, enabled: bool | None = None) -> None:
         self.title = title
-        self.enabled = _interactive() if enabled is None else enabled
+        self.live = _interactive()
+        self.enabled = self.live if enabled is None else enabled
         self.start = time.perf_counter()
         self.current: tuple[str, float] | None = None
 
@@ -46,11 +50,13 @@ class Stages:
         """End the current step (if any) and start ``name``."""
         self.done()
         self.current = (name, time.perf_counter())
-        if self.enabled:
+        if self.enabled and self.live:
             print(f"{self.title}: {name} ...", end="", file=sys.stderr, flush=True)
+        elif self.enabled:
+            print(f"{self.title}: {name} ...", file=sys.stderr, flush=True)
 
     def done(self) -> None:
         """End the current step."""
-        if self.current is not None and self.enabled:
+        if self.current is not None and self.enabled and self.live:
             print(f" {time.perf_counter() - self.current[1]:.1f} s", file=sys.stderr, flush=True)
         self.current = None

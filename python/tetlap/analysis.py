@@ -35,7 +35,8 @@ TOL = 1e-10
 #: semidefinite: each vertex's tolerance is relative to its own row, so that no part of the
 #: mesh (a component far larger, a region far finer) sets the tolerance of another.
 NSD_RTOL = 1e-9
-#: Largest n for which the NSD check computes all eigenvalues (exact, dense).
+#: Largest n for which the NSD check computes all eigenvalues (dense, on one BLAS thread),
+#: its last resort when neither a certificate nor the LDL^T decides.
 DENSE_NSD_MAX = 2500
 
 
@@ -162,22 +163,23 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     (equivalently, the Jacobi-scaled ``D^-1/2 (-L) D^-1/2``, ``D = diag(|L_ii|)``, has no
     eigenvalue below -1e-9). A mesh part of another scale (a far larger component, a far
     finer region) therefore changes nothing about the answer for the rest: "yes" holds of
-    every part, and scaling any part leaves the answer as it is. The answer is, in this
-    order: for ``n <= 2500``, dense eigenvalues (of ``-L``, whose smallest is reported, and
-    of the scaled matrix, which decide). Then the **element certificate**, if ``L`` is the
-    mesh's operator of ``kind`` (without ``kind``: the primal, then the dual) to 1e-12
-    relative: ``-L`` is the sum of per-tet matrices ``K_t``; each is checked positive
-    semidefinite (for the primal, ``Vol_t G_t G_t^T``: by construction), and tets that fail
-    are grouped with face neighbours until each group's sum is (a sum of positive
-    semidefinite matrices is one); at every vertex the shifts of the pieces and the gap to
-    ``L`` add up to at most its tolerance. Then the certificate of
+    every part, and scaling any part leaves the answer as it is. The answer is the first
+    of these, cheapest first, that decides; ``nsd_method`` names it. The **element
+    certificate**, if ``L`` is the mesh's operator of ``kind`` (without ``kind``: the
+    primal, then the dual) to 1e-12 relative: ``-L`` is the sum of per-tet matrices
+    ``K_t``; each is checked positive semidefinite (for the primal, ``Vol_t G_t G_t^T``: by
+    construction), and tets that fail are grouped with face neighbours until each group's
+    sum is (a sum of positive semidefinite matrices is one); at every vertex the shifts of
+    the pieces and the gap to ``L`` add up to at most its tolerance. Then the certificate of
     :func:`tetlap._core.negative_semidefinite` on the edge weights: non-negative weights (a
     weighted graph Laplacian), or every negative weight covered by the positive weights of
     its neighbourhood, or a witness vector ``x`` on a small neighbourhood with
     ``x^T (-L) x < -1e-9 x^T D x`` (indefinite, by interlacing). Those steps cost ``O(size
     of the mesh)``. When none of them answers and ``n <= 30000`` (``SPARSE_NSD_MAX``), the
-    inertia of a sparse LDL^T of ``-L + 1e-9 D`` decides (seconds at that size); otherwise
-    ``nsd`` is None and ``nsd_method`` says why.
+    inertia of a sparse LDL^T of ``-L + 1e-9 D`` (seconds at that size); when that
+    factorisation has to pivot off the diagonal and ``n <= 2500`` (``DENSE_NSD_MAX``),
+    dense eigenvalues (of ``-L``, whose smallest is reported, and of the scaled matrix,
+    which decide). Otherwise ``nsd`` is None and ``nsd_method`` says why.
 
     Examples
     --------
@@ -313,57 +315,64 @@ def _live_rows(S: sp.csr_array, diagonal: np.ndarray) -> tuple[np.ndarray, int |
 
 
 def _dense(S: sp.csr_array, diagonal: np.ndarray):
-    """(is NSD, smallest eigenvalue of -L, method) from dense eigenvalues: those of ``-L``
-    (the smallest is reported) and, unless that one already says no, those of the
+    """(is NSD, smallest eigenvalue of -L) from dense eigenvalues, on one BLAS thread (the
+    core's threads and other processes would make more spin against each other): those of
+    ``-L`` (the smallest is reported) and, unless that one already says no, those of the
     Jacobi-scaled ``D^-1/2 (-L) D^-1/2`` on the rows with entries, which decide."""
+    from .solve._amg import one_blas_thread
+
     A = (-S).toarray()
-    lam = float(interruptible(np.linalg.eigvalsh, A)[0])
-    verdict = False  # lambda_min(-L + diag(tol)) <= lam + max(tol) < 0
-    if lam >= -NSD_RTOL * diagonal.max():
-        live, zero_diagonal = _live_rows(S, diagonal)
-        verdict = zero_diagonal is None
-        if verdict and len(live):
-            s = 1 / np.sqrt(diagonal[live])
-            B = A[np.ix_(live, live)] * s[:, None] * s[None, :]
-            verdict = float(interruptible(np.linalg.eigvalsh, B)[0]) >= -NSD_RTOL
-    return verdict, lam, "dense eigenvalues"
+    with one_blas_thread():
+        lam = float(interruptible(np.linalg.eigvalsh, A)[0])
+        verdict = False  # lambda_min(-L + diag(tol)) <= lam + max(tol) < 0
+        if lam >= -NSD_RTOL * diagonal.max():
+            live, zero_diagonal = _live_rows(S, diagonal)
+            verdict = zero_diagonal is None
+            if verdict and len(live):
+                s = 1 / np.sqrt(diagonal[live])
+                B = A[np.ix_(live, live)] * s[:, None] * s[None, :]
+                verdict = float(interruptible(np.linalg.eigvalsh, B)[0]) >= -NSD_RTOL
+    return verdict, lam
 
 
 def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool):
-    """(is NSD, smallest eigenvalue of -L or a witness' Rayleigh quotient, method)."""
+    """(is NSD, smallest eigenvalue of -L or a witness' Rayleigh quotient, method): the
+    cheapest answer first (see :func:`check`, Notes)."""
     n = L.shape[0]
     S = (L + L.T) / 2
     S.sort_indices()
     diagonal = np.abs(S.diagonal())
-    if n <= DENSE_NSD_MAX:
-        return _dense(S, diagonal)
     tol = NSD_RTOL * diagonal
     answer = _element_certificate(S, V, T, scale, tol, kind, assembled)
     if answer is not None:
         return answer
     verdict, name, details = _core.negative_semidefinite(n, _sparse.arrays(S), tol)
     if name == "local certificate":
-        name = (f"local certificate: {details['groups']} neighbourhoods of <= "
-                f"{details['largest']} vertices cover every negative weight")
-    elif name == "indefinite":
+        return verdict, None, (f"local certificate: {details['groups']} neighbourhoods of <= "
+                               f"{details['largest']} vertices cover every negative weight")
+    if name == "indefinite":
         return False, details["rayleigh"], (
             f"witness: a vector on {details['support']} vertices around vertex "
             f"{details['vertex']} with Rayleigh quotient {details['rayleigh']:.3e}")
-    elif name == "undetermined":
-        reason = (f"{details['uncovered']} negative weights not covered by neighbourhoods of "
-                  f"<= {_core.MAX_GROUP} vertices")
-        if n > SPARSE_NSD_MAX:
-            return None, None, f"undetermined: {reason} (n > {SPARSE_NSD_MAX})"
-        live, zero_diagonal = _live_rows(S, diagonal)
-        if zero_diagonal is not None:
-            return False, None, (f"row {zero_diagonal} of L has entries but a zero diagonal "
-                                 "(an indefinite 2 x 2 principal minor)")
+    if name != "undetermined":
+        return verdict, None, name
+    reason = (f"{details['uncovered']} negative weights not covered by neighbourhoods of "
+              f"<= {_core.MAX_GROUP} vertices")
+    live, zero_diagonal = _live_rows(S, diagonal)
+    if zero_diagonal is not None:
+        return False, None, (f"row {zero_diagonal} of L has entries but a zero diagonal "
+                             "(an indefinite 2 x 2 principal minor)")
+    if n <= SPARSE_NSD_MAX:
         negatives = _ldl_inertia((-S)[live][:, live], tol[live])
-        if negatives is None:
-            return None, None, f"undetermined: {reason}; the LDL^T pivoted off the diagonal"
-        return negatives == 0, None, (f"inertia of a sparse LDL^T of -L + {NSD_RTOL:.0e} "
-                                      f"diag(|L_ii|): {negatives} negative pivots ({reason})")
-    return verdict, None, name
+        if negatives is not None:
+            return negatives == 0, None, (f"inertia of a sparse LDL^T of -L + {NSD_RTOL:.0e} "
+                                          f"diag(|L_ii|): {negatives} negative pivots ({reason})")
+        reason += "; the LDL^T pivoted off the diagonal"
+    if n <= DENSE_NSD_MAX:
+        verdict, lam = _dense(S, diagonal)
+        return verdict, lam, f"dense eigenvalues ({reason})"
+    limit = DENSE_NSD_MAX if n <= SPARSE_NSD_MAX else SPARSE_NSD_MAX
+    return None, None, f"undetermined: {reason} (n > {limit})"
 
 
 def _element_certificate(S, V, T, scale: float, tol: np.ndarray, kind, assembled: bool):

@@ -26,6 +26,7 @@ True
 
 from __future__ import annotations
 
+import math
 import numbers
 
 import numpy as np
@@ -94,7 +95,8 @@ class HeatDistance:
         The mesh, as :func:`tetlap.laplacian` takes it (or one mesh object as ``V``).
     t : float > 0, optional
         The heat step's time, in squared length units; default ``h^2`` with ``h`` the mean
-        edge length (the paper's choice: the error then converges with ``h``).
+        edge length (the paper's choice: the error then converges with ``h``). One so large
+        that ``t L`` overflows is an OptionError.
     laplacian : {"primal", "dual"} or float in [0, 1], default "primal"
         The Laplacian of the heat and Poisson steps (any kind :func:`tetlap.laplacian`
         takes; ``weights=`` gives the weighted dual). The divergence is always the P1 one,
@@ -184,6 +186,9 @@ class HeatDistance:
             sp.coo_array((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)),
             directed=False)
         L, M = sp.csr_array(L), sp.csr_array(M)
+        if not math.isfinite(self.t * float(np.abs(L.data).max(initial=0.0))):
+            raise OptionError(f"t = {self.t:g} is too large for this mesh: t L leaves the "
+                              "float64 range")
         A = sp.csr_array(M - self.t * L)
         used = np.flatnonzero(self._used)
         self._factors = 0

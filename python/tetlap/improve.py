@@ -64,7 +64,7 @@ from .errors import ShapeError
 from .analysis import negative_weights
 
 __all__ = ["improve", "Improvement", "Objective", "keep_orientation",
-           "fewest_negative_weights", "dual_statistics"]
+           "fewest_negative_weights", "dual_statistics", "MAX_MARGIN"]
 
 #: Tets may lose this fraction of their quality before the barrier acts.
 R0 = 0.5
@@ -274,8 +274,12 @@ def fewest_negative_weights(objective: Objective, x0, x, alpha: float) -> float:
     return candidates[int(np.argmin(counts))]  # the first, largest, of the fewest
 
 
+#: The largest ``margin``: the squared hinge of a larger one leaves the float range.
+MAX_MARGIN = 1e6
+
+
 def _check_options(margin, barrier, regularization, step, max_iterations, threads) -> None:
-    _options.non_negative(margin, "margin")
+    _options.at_most(_options.non_negative(margin, "margin"), MAX_MARGIN, "margin")
     _options.non_negative(barrier, "barrier")
     _options.non_negative(regularization, "regularization")
     _options.positive(step, "step")
@@ -297,14 +301,16 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
     fixed : (n,) bool array-like, optional
         Vertices that must not move, besides the boundary (e.g. vertices on an interior
         interface).
-    margin : float >= 0, default 0.02
-        ``delta``: weights below ``delta h`` are penalised (``h`` the mean edge length).
+    margin : float in [0, 1e6], default 0.02
+        ``delta``: weights below ``delta h`` are penalised (``h`` the mean edge length);
+        at most :data:`MAX_MARGIN`.
     barrier : float >= 0, default 10
         ``mu``, the weight of the quality barrier.
     regularization : float >= 0, default 1e-4
         ``lambda``, the weight of the displacement term.
     step : float > 0, default 0.3
-        Every vertex stays within a box of half-width ``step`` times its shortest edge.
+        Every vertex stays within a box of half-width ``step`` times its shortest edge (a
+        box below the rounding of its coordinates: the vertex does not move).
     max_iterations : int >= 1, default 200
         L-BFGS-B iterations.
     threads : int, optional
@@ -362,11 +368,14 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
         if progress is not None:
             progress(len(history), history[-1])
 
-    if len(objective.free):
-        res = minimize(objective, x0, jac=True, method="L-BFGS-B",
-                       bounds=objective.bounds(step), callback=after_iteration,
+    bounds = objective.bounds(step)
+    if (bounds[:, 0] < bounds[:, 1]).any():
+        res = minimize(objective, x0, jac=True, method="L-BFGS-B", bounds=bounds,
+                       callback=after_iteration,
                        options={"maxiter": max_iterations, "maxcor": 20})
         x, iterations, message = res.x, int(res.nit), str(res.message)
+    elif len(objective.free):  # every box below the rounding of its coordinates
+        x, iterations, message = x0, 0, f"step {step:g} leaves no vertex room to move"
     else:
         x, iterations, message = x0, 0, "no vertex can move"
     alpha = keep_orientation(objective, x0, x)

@@ -32,7 +32,7 @@ from .errors import ShapeError, TetlapError
 from .analysis import NEGATIVE_TOL, _check, check
 from .regular import RegularWeights, regular_weights
 
-__all__ = ["report", "regular_summary", "plot", "PAIRS", "SCHEMA_VERSION",
+__all__ = ["report", "regular_summary", "plot", "plot_names", "PAIRS", "SCHEMA_VERSION",
            "REGULAR_TIME_LIMIT", "REGULAR_TIME_SHARE", "REGULAR_MAX_TETS"]
 
 #: The version of the report's layout (its keys and their meaning), the first key of
@@ -262,13 +262,24 @@ def spread_bins(values, per_decade: int = 8):
     return np.concatenate([-outer[::-1], outer]), threshold
 
 
+def plot_names(name: str) -> list[str]:
+    """The file names :func:`plot` writes for a mesh named ``name``.
+
+    >>> plot_names("cube")
+    ['cube_dihedral_angles.png', 'cube_weights.png', 'cube_masses.png']
+    """
+    return [f"{name}_{what}.png" for what in ("dihedral_angles", "weights", "masses")]
+
+
 def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     """Histograms of a mesh's dihedral angles, of the edge weights of both Laplacians and of
     the barycentric and circumcentric masses, as PNG files ``NAME_dihedral_angles.png``,
-    ``NAME_weights.png`` and ``NAME_masses.png`` in ``folder`` (created if needed); returns
-    their paths. Titles name the mesh. Weights and masses are binned on symmetric log
-    scales (:func:`spread_bins`), so that slivers' huge values do not collapse the rest
-    into one bar. Needs matplotlib (``pip install 'tetlap[experiments]'``), checked first.
+    ``NAME_weights.png`` and ``NAME_masses.png`` (:func:`plot_names`) in ``folder``
+    (created if needed); returns their paths. Titles name the mesh (a lone surrogate of
+    ``name``, from a file name that is not UTF-8, escaped). Weights and masses are binned
+    on symmetric log scales (:func:`spread_bins`), so that slivers' huge values do not
+    collapse the rest into one bar. Needs matplotlib (``pip install
+    'tetlap[experiments]'``), checked first.
 
     Example
     -------
@@ -287,9 +298,11 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     folder = pathlib.Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
+    files = dict(zip(("dihedral_angles", "weights", "masses"), plot_names(name)))
+    title = name.encode("utf-8", "backslashreplace").decode("utf-8")  # no lone surrogates
 
     def save(fig, what):
-        path = folder / f"{name}_{what}.png"
+        path = folder / files[what]
         fig.savefig(path, dpi=120, bbox_inches="tight")
         plt.close(fig)
         paths.append(path)
@@ -321,7 +334,7 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     ax.set_yscale("log")
     ax.set_xlabel("dihedral angle (degrees)")
     ax.set_ylabel("tet edges")
-    ax.set_title(f"{name}: dihedral angles of its {len(T)} tets")
+    ax.set_title(f"{title}: dihedral angles of its {len(T)} tets")
     save(fig, "dihedral_angles")
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
@@ -332,7 +345,7 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
         ax.set_xlabel("edge weight w_ij (symmetric log scale)")
         ax.set_ylabel("edges")
         ax.set_title(f"{kind} Laplacian: {100 * negative:.2f}% of the weights negative")
-    fig.suptitle(f"{name}: edge weights of the two Laplacians")
+    fig.suptitle(f"{title}: edge weights of the two Laplacians")
     save(fig, "weights")
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
@@ -342,6 +355,6 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
         ax.set_xlabel("vertex mass (symmetric log scale)")
         ax.set_ylabel("vertices")
         ax.set_title(f"{kind} mass: {int((m <= 0).sum())} of {len(m)} vertices with mass <= 0")
-    fig.suptitle(f"{name}: lumped masses")
+    fig.suptitle(f"{title}: lumped masses")
     save(fig, "masses")
     return paths

@@ -13,17 +13,19 @@ BUILT_IN_NAME = "ball"
 
 
 def load(path: str | None):
-    """``(V, T, description)`` of a mesh file, or of the built-in ball; nothing that the
-    readers print reaches stdout."""
+    """``(V, T, description)`` of a mesh file (its path as printable text), or of the
+    built-in ball; nothing that the readers print reaches stdout."""
     from .. import meshes
 
     if path is None:
         return (*meshes.ball(2000, seed=0), BUILT_IN)
     from .. import io
 
+    from ._paths import shown
+
     with contextlib.redirect_stdout(sys.stderr):
         V, T = io.read(path)
-    return V, T, path
+    return V, T, shown(path)
 
 
 def name(path: str | None) -> str:

@@ -63,8 +63,22 @@ def _share(count: int, total: int) -> str:
 
 
 def error_line(error: BaseException) -> str:
-    """``tetlap: error: MESSAGE`` on one line."""
-    return "tetlap: error: " + " ".join(str(error).split())
+    """``tetlap: error: MESSAGE`` on one line, printable (:func:`printable`)."""
+    return "tetlap: error: " + printable(" ".join(str(error).split()))
+
+
+def printable(text: str) -> str:
+    """``text`` that any stream can print: the bytes of a file name that are not UTF-8
+    (which Python passes on as lone surrogates) become ``\\xNN`` escapes.
+
+    >>> import os
+    >>> printable(os.fsdecode(b"mesh-\\xff.vtu"))
+    'mesh-\\\\xff.vtu'
+    """
+    try:
+        return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # a surrogate that no file name decodes to
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
 # ---- tetlap info -----------------------------------------------------------------------

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import contextlib
-import pathlib
 
-from . import _mesh
+from . import _mesh, _paths
 
 NAME = "assemble"
 HELP = "save L and M as scipy .npz files"
@@ -42,7 +41,14 @@ def kind(text: str):
 
 def check(args) -> None:
     """``--laplacian`` (a name, or t in [0, 1]) before the mesh is read: by the core's own
-    check, on one reference tet."""
+    check, on one reference tet; then the two output files."""
+    check_laplacian(args)
+    for name in output_names(args.output):
+        _paths.output_file(name, "-o")
+
+
+def check_laplacian(args) -> None:
+    """``--laplacian``: a name, or t in [0, 1] (also ``tetlap geodesic``'s)."""
     from .. import assembly
     from ..errors import OptionError
 
@@ -62,9 +68,10 @@ def run(args) -> int:
     L, M = assembly.operators(V, T, laplacian=kind(args.laplacian), mass=args.mass,
                               degenerate=args.degenerate)
     l_file, m_file = output_names(args.output)
-    pathlib.Path(l_file).parent.mkdir(parents=True, exist_ok=True)
+    _paths.make_folder(l_file)
     sp.save_npz(l_file, L)
     sp.save_npz(m_file, M)
-    print(f"L ({args.laplacian}, {L.shape[0]} x {L.shape[1]}, {L.nnz} entries) -> {l_file}")
-    print(f"M ({args.mass}) -> {m_file}")
+    print(f"L ({args.laplacian}, {L.shape[0]} x {L.shape[1]}, {L.nnz} entries) -> "
+          f"{_paths.shown(l_file)}")
+    print(f"M ({args.mass}) -> {_paths.shown(m_file)}")
     return 0

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from .. import _options
-from . import _output
+from . import _output, _paths
 
 NAME = "bench"
 HELP = "timings against the floor and the baselines"
@@ -23,7 +23,8 @@ def arguments(p) -> None:
     p.add_argument("--threads", type=int, default=None,
                    help="worker threads (default: all cores)")
     p.add_argument("--repeat", type=int, default=None,
-                   help="repetitions, the median is reported (default: 5; --quick: 3)")
+                   help="repetitions, the median is reported, 1 to 10000 (default: 5; "
+                        "--quick: 3)")
     p.add_argument("--operators", nargs="+", metavar="WORD",
                    help="only cases whose name contains a word, e.g. primal dual Mesh check "
                         "info numpy voronoi scikit (the floor always runs, and igl.cotmatrix "
@@ -33,16 +34,25 @@ def arguments(p) -> None:
                         "each case in its own process, against one assembly, SuperLU, pyamg "
                         "and libigl: tetlap.benchmark_solve); --quick: the 189k-tet ball only")
     p.add_argument("--cap", type=float, default=300.0,
-                   help="--solve: seconds after which a case is killed (default: 300)")
+                   help="--solve: seconds after which a case is killed, at most 1e6 "
+                        "(default: 300)")
     p.add_argument("--quick", action="store_true", help="small sizes, fewer repetitions")
     p.add_argument("--json", action="store_true", help="print JSON records (default: a table)")
 
 
+#: The most repetitions ``--repeat`` takes.
+MAX_REPEAT = 10_000
+
+
 def check(args) -> None:
+    """The numeric flags, and that every ``--mesh`` file can be read (the generated meshes
+    are timed first)."""
     _options.threads(args.threads, "--threads")
     if args.repeat is not None:
-        _options.count(args.repeat, "--repeat")
-    _options.positive(args.cap, "--cap")
+        _options.at_most(_options.count(args.repeat, "--repeat"), MAX_REPEAT, "--repeat")
+    _options.at_most(_options.positive(args.cap, "--cap"), _options.MAX_SECONDS, "--cap")
+    for path in args.mesh or ():
+        _paths.input_file(path, "--mesh")
 
 
 def run(args) -> int:

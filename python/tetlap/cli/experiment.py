@@ -6,7 +6,7 @@ import argparse
 import os
 
 from .. import _options, experiments
-from . import _output
+from . import _output, _paths
 
 NAME = "experiment"
 HELP = "reproduce the paper's experiments"
@@ -15,7 +15,7 @@ DESCRIPTION = "One of the paper's Sec. 8 and 9 experiments: CSV, PNG, summary."
 
 def _folder(text: str) -> str:
     if not os.path.isdir(text):
-        raise argparse.ArgumentTypeError(f"no such folder: {text}")
+        raise argparse.ArgumentTypeError(f"no such folder: {_paths.shown(text)}")
     return text
 
 
@@ -29,7 +29,9 @@ def arguments(p) -> None:
 
 
 def check(args) -> None:
+    """``--seed``, then the output folder (``--out`` or its default)."""
     _options.count(args.seed, "--seed", least=0)
+    _paths.output_folder(experiments.folder(args.name, args.out), "--out")
 
 
 def run(args) -> int:

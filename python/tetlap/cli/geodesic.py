@@ -3,12 +3,8 @@ one or more source vertices (:class:`tetlap.HeatDistance`), written as point dat
 
 from __future__ import annotations
 
-import os
-import pathlib
-
 from .. import _options
-from ..errors import OptionError
-from . import assemble
+from . import _paths, assemble
 
 NAME = "geodesic"
 HELP = "heat-method geodesic distance from source vertices"
@@ -38,33 +34,15 @@ def arguments(p) -> None:
                    help="worker threads (default: all cores)")
 
 
-def writable(path: str, flag: str = "--out") -> None:
-    """OptionError unless ``path`` has a mesh format's extension and can be written (the
-    file is opened for appending, and removed again when it did not exist)."""
-    import meshio
-
-    suffixes = "".join(pathlib.Path(path).suffixes[-2:])
-    if not any(suffixes.endswith(ext) for ext in meshio.extension_to_filetypes):
-        raise OptionError(f"{flag} {path}: not a mesh format's extension (e.g. .vtu)")
-    existed = os.path.exists(path)
-    try:
-        with open(path, "a"):
-            pass
-    except OSError as e:
-        raise OptionError(f"{flag} {path}: cannot be written ({e.strerror})") from None
-    if not existed:
-        os.remove(path)
-
-
 def check(args) -> None:
     for s in args.source:
         _options.count(s, "--source", least=0)
     if args.time is not None:
         _options.positive(args.time, "--time")
     _options.threads(args.threads, "--threads")
-    assemble.check(args)
+    assemble.check_laplacian(args)
     if args.out is not None:
-        writable(args.out)
+        _paths.mesh_file(args.out, "--out", ("distance",))
 
 
 def run(args) -> int:
@@ -76,7 +54,7 @@ def run(args) -> int:
     from ..heat import HeatDistance, _sources
     from . import _mesh
 
-    step = Stages("tetlap geodesic")
+    step = Stages("tetlap geodesic", True)   # stderr; a line per step when not a terminal
     step("read")
     V, T, source = _mesh.load(args.mesh)
     used = np.zeros(len(V), dtype=bool)
@@ -93,6 +71,7 @@ def run(args) -> int:
     d = heat.distance(args.source)
     if args.out is not None:
         step("write")
+        _paths.make_folder(args.out)
         io.write(args.out, V, T, point_data={"distance": d})
     step.done()
     finite = d[np.isfinite(d)]
@@ -102,5 +81,5 @@ def run(args) -> int:
     print(f"distance: max {finite.max():.6g}, mean {finite.mean():.6g}; "
           f"{len(d) - len(finite)} vertices unreachable (inf)")
     if args.out is not None:
-        print(f"written: {args.out} (point data 'distance')")
+        print(f"written: {_paths.shown(args.out)} (point data 'distance')")
     return 0

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from .. import _options
-from . import _output
+from . import _output, _paths
 
 NAME = "improve"
 HELP = "move interior vertices to remove negative dual weights"
@@ -18,7 +18,7 @@ def arguments(p) -> None:
                    help="the improved mesh (format from the extension, e.g. .vtu)")
     p.add_argument("--margin", type=float, default=0.02,
                    help="penalise dual weights below MARGIN times the mean edge length, a "
-                        "number >= 0 (default: 0.02)")
+                        "number from 0 to 1e6 (default: 0.02)")
     p.add_argument("--iterations", type=int, default=200,
                    help="L-BFGS-B iterations, >= 1 (default: 200)")
     p.add_argument("--step", type=float, default=0.3,
@@ -29,20 +29,26 @@ def arguments(p) -> None:
 
 
 def check(args) -> None:
-    _options.non_negative(args.margin, "--margin")
+    from ..improve import MAX_MARGIN
+
+    _options.at_most(_options.non_negative(args.margin, "--margin"), MAX_MARGIN, "--margin")
     _options.count(args.iterations, "--iterations")
     _options.positive(args.step, "--step")
     _options.threads(args.threads, "--threads")
+    _paths.mesh_file(args.output, "-o")
 
 
 def run(args) -> int:
     from .. import io
     from ..improve import improve
+    from . import _mesh
 
-    V, T = io.read(args.mesh)
+    V, T, source = _mesh.load(args.mesh)
     result = improve(V, T, margin=args.margin, max_iterations=args.iterations, step=args.step,
                      threads=args.threads)
+    _paths.make_folder(args.output)
     io.write(args.output, result.V, T)
-    print(f"mesh: {args.mesh} ({len(V)} vertices, {len(T)} tets) -> {args.output}")
+    print(f"mesh: {source} ({len(V)} vertices, {len(T)} tets) -> "
+          f"{_paths.shown(args.output)}")
     print(_output.improve_table(result))
     return 0

@@ -6,7 +6,7 @@ from __future__ import annotations
 import sys
 
 from .. import _options
-from . import _mesh, _output
+from . import _mesh, _output, _paths
 
 NAME = "info"
 HELP = "the mesh and the Table 1 properties of both Laplacians"
@@ -34,28 +34,33 @@ def arguments(p) -> None:
 
 
 def check(args) -> None:
-    """The flags, and matplotlib for ``--plot``, before the mesh is read."""
+    """The flags, and matplotlib and the folder for ``--plot``, before the mesh is read."""
     from .. import info
 
     if args.regular_time is not None:
         _options.positive(args.regular_time, "--regular-time")
-    if args.plot:
+    if args.plot is not None:
         info.pyplot()
+        _paths.output_folder(args.plot, "--plot", info.plot_names(_mesh.name(args.mesh)))
 
 
 def run(args) -> int:
     from .. import info
+    from .._progress import Stages
 
+    step = Stages("tetlap info", not args.json)   # stderr; a line per step when not a terminal
+    step("read the mesh" if args.mesh else "make the built-in mesh")
     V, T, source = _mesh.load(args.mesh)
-    result = info.report(V, T, nsd=not args.no_nsd, progress=None if not args.json else False,
+    step.done()
+    result = info.report(V, T, nsd=not args.no_nsd, progress=not args.json,
                          regular=not args.no_regular, regular_time_limit=args.regular_time)
     if args.json:
         print(_output.json_document({"schema_version": result["schema_version"],
                                      "source": source, **result}))
     else:
         print(_output.info_report(result, source))
-    if args.plot:
+    if args.plot is not None:
         files = info.plot(V, T, args.plot, name=_mesh.name(args.mesh))
-        print(f"plots: {', '.join(str(p) for p in files)}",
+        print(f"plots: {', '.join(_paths.shown(p) for p in files)}",
               file=sys.stderr if args.json else sys.stdout)
     return 0

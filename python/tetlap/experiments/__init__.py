@@ -20,9 +20,9 @@ import pathlib
 from typing import NamedTuple
 
 from ..errors import OptionError
-from ._output import Output
+from ._output import Output, folder
 
-__all__ = ["EXPERIMENTS", "NAMES", "CORPUS_NAMES", "Experiment", "Output", "run"]
+__all__ = ["EXPERIMENTS", "NAMES", "CORPUS_NAMES", "Experiment", "Output", "folder", "run"]
 
 
 class Experiment(NamedTuple):

@@ -9,12 +9,18 @@ import time
 from typing import Callable
 
 
+def folder(name: str, out: str | os.PathLike | None = None) -> pathlib.Path:
+    """The folder experiment ``name`` writes into: ``out``, by default
+    ``tetlap-experiments/NAME`` in the working folder."""
+    return pathlib.Path(out or pathlib.Path("tetlap-experiments") / name)
+
+
 class Output:
     """The files of one experiment run: CSV rows, figures and the summary."""
 
     def __init__(self, name: str, out: str | os.PathLike | None, quick: bool, seed: int):
         self.name, self.quick, self.seed = name, quick, seed
-        self.dir = pathlib.Path(out or pathlib.Path("tetlap-experiments") / name)
+        self.dir = folder(name, out)
         self.dir.mkdir(parents=True, exist_ok=True)
         self.rows: list[dict] = []
         self.lines: list[str] = []
