@@ -278,9 +278,10 @@ def quadratic(V, problem: Problem, floors: np.ndarray, aims: np.ndarray, lo: np.
     res = linprog(np.r_[np.zeros(6), -1.0], A_ub=np.hstack([-rows, np.ones((len(rows), 1))]),
                   b_ub=np.zeros(len(rows)), bounds=[(-1.0, 1.0)] * 6 + [(None, 1.0)],
                   method="highs-ds", options=_highs_options(budget, presolve=False))
-    if res.status != 0 or not -res.fun > 0:
+    rise = rows @ res.x[:6] if res.status == 0 else None
+    if rise is None or not -res.fun > 0 or not (rise > 0).all():  # (within HiGHS' tolerance)
         return None
-    eps = float(np.max((aims[low] - problem.g0[low]) / (rows @ res.x[:6])))
+    eps = float(np.max((aims[low] - problem.g0[low]) / rise))
     u = eps * size ** 2 * (phi @ res.x[:6]) / problem.scale
     ok = (problem.margins(u) >= floors).all() and (u >= lo).all() and (u <= hi).all()
     return u if ok else None
