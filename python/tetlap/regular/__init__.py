@@ -230,9 +230,10 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
     Cost: besides the budgeted iterations, every call computes the face conditions and
     checks ``w = 0``; a mesh with cospherical faces solves one LP with 7 unknowns (the
     quadratic lifting); and the report assembles the dual twice and checks the weights.
-    All of it is linear in the mesh: with ``max_iterations=1``, 1.1 s on 94k tets and 6 s
+    All of it is linear in the mesh: with ``max_iterations=1``, 1-2 s on 94k tets and 5-8 s
     on 384k (jittered Kuhn grids, ``meshes.cube(25 | 40, jitter=0.2)``, on a loaded
-    2-core machine; the lifting's LP is a third of it).
+    2-core machine; at 384k about 2 s check ``w = 0``, 1.5 s the lifting's LP, 0.6 s the
+    conditions, 0.7 s the search's set-up, 0.5 s the report).
 
     Raises
     ------
