@@ -5,6 +5,7 @@ test_regular_examples, by face margins at random weights, or by the weighted dua
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -324,3 +325,40 @@ def test_the_weights_of_every_status_go_into_every_entry_point(case):
     assert s["status"] == case and s["negative_interior_weights"]["weighted_dual"] >= 0
     if case == "not regular":
         np.testing.assert_array_equal(w, 0)
+
+
+@pytest.mark.parametrize("mesh", ["regular", "not regular"])
+def test_a_small_budget_bounds_the_work(mesh):
+    # issue 30 item 9: max_iterations=1 spent 2 iterations and then 4 certificate LPs
+    # (8 s on 94k tets); LPs wait for 300 iterations or a stalled search (this
+    # non-regular one stalls after 19 and is certified by one LP)
+    V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0) if mesh == "regular" else mother(0.0)
+    for budget in (1, 2, 5):
+        r = regular_weights(V, T, max_iterations=budget, mass_floor=None)
+        assert r.iterations == budget and r.lp_count == 0
+        assert r.status == "undecided" and any("iteration budget" in n for n in r.notes)
+    assert regular_weights(V, T, max_iterations=299).status == mesh
+
+
+@pytest.mark.parametrize("scale", [1e120, 1e-150, 2.0**300, 2.0**-300, 1e150])
+def test_far_from_everyday_units_the_answer_is_the_same(scale):
+    # issue 30 item 9: cubes scaled by 1e120 or 1e-150 were refused, with 29 NumPy
+    # warnings and advice to pass a degenerate= that regular_weights does not have
+    V, T = tetlap.meshes.cube(3, jitter=0.25, seed=2)
+    r0 = regular_weights(V, T)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r = regular_weights(V * scale, T)
+    assert r.status == r0.status == "regular"
+    np.testing.assert_allclose(r.weights / scale**2, r0.weights, rtol=1e-9,
+                               atol=1e-12 * np.abs(r0.weights).max())
+    np.testing.assert_allclose(r.face_margins, r0.face_margins, rtol=1e-9, atol=1e-12)
+    assert (face_margins(V * scale, T, r.weights) > 0).all()
+
+
+@pytest.mark.parametrize("scale", [1e160, 1e-160, 1e300])
+def test_weights_beyond_the_float64_range_are_refused(scale):
+    V, T = tetlap.meshes.cube(3, jitter=0.25, seed=2)
+    with pytest.raises(tetlap.NonFiniteError, match="rescale the mesh") as e:
+        regular_weights(V * scale, T)
+    assert "degenerate=" not in str(e.value)

@@ -304,3 +304,36 @@ def test_metis_in_a_child_process_gives_the_same_order(monkeypatch, tmp_path):
     out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split("\n")[:2] == ["run", "nested dissection (METIS)"]
+
+
+@pytest.mark.parametrize("solver", ["auto", "cholesky", "lu"])
+def test_a_singular_matrix_is_refused_not_solved(solver):
+    # issue 30 item 4: factorize(-L) of a pure Neumann Laplacian (singular: constants in
+    # its null space) gave answers of 1e17 that passed the residual check
+    V, T = tetlap.meshes.cube(3, jitter=0.2, seed=1)
+    L = tetlap.laplacian(V, T)
+    V2, T2 = np.vstack([V, V + 3]), np.vstack([T, T + len(V)])   # two components
+    for A in (-L, -tetlap.laplacian(V2, T2, "dual")):
+        F = solve.factorize(A, solver=solver)
+        b = np.sin(np.arange(A.shape[0]))
+        for rhs in (b, b - b.mean(), np.ones(A.shape[0])):
+            with pytest.raises(tetlap.SolveError, match="singular"):
+                F.solve(rhs)
+    # refactored onto a singular matrix, and back
+    F = solve.factorize(-L + sp.eye_array(L.shape[0]), solver=solver)
+    F.refactor(-L)
+    with pytest.raises(tetlap.SolveError, match="singular"):
+        F.solve(b[:L.shape[0]])
+    F.refactor(-L + 1e-3 * sp.eye_array(L.shape[0]))
+    assert np.isfinite(F.solve(b[:L.shape[0]])).all()
+
+
+@pytest.mark.parametrize("solver", ["auto", "cholesky", "lu"])
+def test_badly_scaled_but_well_conditioned_matrices_are_solved(solver):
+    # the singularity test is relative to each row: a diagonal scaling changes nothing
+    V, T = tetlap.meshes.cube(3, jitter=0.2, seed=1)
+    A = -tetlap.laplacian(V, T) + 0.5 * tetlap.mass(V, T)
+    s = sp.diags_array(np.logspace(-30, 30, A.shape[0]))
+    b = np.sin(np.arange(A.shape[0]))
+    x = solve.factorize(sp.csr_array(s @ A @ s), solver=solver).solve(s @ b)
+    np.testing.assert_allclose(s @ x, solve.factorize(A, solver=solver).solve(b), rtol=1e-5)

@@ -134,6 +134,28 @@ def in_range(A: np.ndarray, n: int, row: str) -> None:
                               "vertices", element=first, index=index)
 
 
+def used_vertices(V: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(used, T_used)`` of a mesh ``V`` (n, d) float64, ``T`` (m, k) int64: the vertices
+    in elements of ``T`` ((k,) int64, increasing) and ``T`` renumbered onto them, in the
+    same order (so every order derived from vertex numbers is kept). Computations that
+    vertices in no element must not influence run on ``(V[used], T_used)``; ``used`` is
+    ``arange(n)`` and ``T_used`` is ``T`` when every vertex is used. Raises as the core
+    does for an index outside ``0..n-1`` (IndexRangeError) and for a non-finite coordinate
+    of any vertex (NonFiniteError)."""
+    n = len(V)
+    in_range(T, n, "element")
+    bad = ~np.isfinite(V)
+    if bad.any():
+        v, c = (int(i) for i in np.argwhere(bad)[0])
+        raise NonFiniteError(f"vertex {v} has a non-finite coordinate "
+                             f"{'NaN' if np.isnan(V[v, c]) else V[v, c]} (column {c})", vertex=v)
+    referenced = np.zeros(n, dtype=bool)
+    referenced[T.ravel()] = True
+    if referenced.all():
+        return np.arange(n, dtype=np.int64), T
+    return np.flatnonzero(referenced).astype(np.int64), (np.cumsum(referenced) - 1)[T]
+
+
 def edges(E, n: int, name: str = "edges") -> np.ndarray:
     """``E`` as a new ``(E, 2)`` int64 array of vertex indices in ``0..n-1``."""
     arr = _as_array(E, name)

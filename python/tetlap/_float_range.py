@@ -62,7 +62,8 @@ UNIT_BAND = (2.0**-64, 2.0**64)
 def unit_scale(V) -> float:
     """A power of two ``s`` such that ``V / s`` has a bounding box of size about 1, for the
     scale-free computations that take powers of lengths in NumPy (the quality barrier of
-    :func:`tetlap.improve.improve`, the regular weights of ``tetlap info``); 1.0 for the
+    :func:`tetlap.improve.improve`, :func:`tetlap.regular_weights`; they pass the vertices
+    in tets only, so that a vertex in none changes nothing); 1.0 for the
     meshes of any real-world unit (box between ``2^-64`` and ``2^64``), which are computed
     as given. Dividing by ``s`` and multiplying back are exact.
 

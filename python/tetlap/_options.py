@@ -1,7 +1,9 @@
-"""The checks of the numeric options of the Python-level tools (``improve``, ``info``) and of
-the command's numeric flags: one rule each, named by the caller — a keyword (``step``) in
-the library, a flag (``--step``) on the command line. A bad value raises
-:class:`tetlap.OptionError` before any work; ``threads`` is checked by the core's one check.
+"""The checks of the numeric keywords of the public API and of the command's numeric flags:
+one rule each, named by the caller — a keyword (``step``) in the library, a flag
+(``--step``) on the command line. A bad value (NaN, an infinity, a bool, a string, a number
+out of range) raises :class:`tetlap.OptionError` before any work; ``threads`` is checked by
+the core's one check. ``tests/test_options.py`` walks every numeric keyword of the public
+API through these.
 
 >>> from tetlap._options import positive
 >>> positive(0.3, "step")
@@ -19,7 +21,8 @@ import numbers
 
 from .errors import OptionError
 
-__all__ = ["positive", "non_negative", "count", "threads", "at_most", "MAX_SECONDS"]
+__all__ = ["positive", "non_negative", "tolerance", "finite", "count", "threads", "at_most",
+           "MAX_SECONDS"]
 
 
 def _real(value) -> bool:
@@ -40,10 +43,28 @@ def non_negative(value, name: str) -> float:
     return value
 
 
-def count(value, name: str, least: int = 1) -> int:
-    """``value`` if it is an integer >= ``least`` (1 or 0)."""
+def tolerance(value, name: str) -> float:
+    """``value`` if it is a finite number in ``[0, 1)``: a relative tolerance (1 or more
+    would accept everything)."""
+    if not (_real(value) and 0 <= value < 1):
+        raise OptionError(f"{name} must be a relative tolerance in [0, 1), got {value!r}")
+    return value
+
+
+def finite(value, name: str) -> float:
+    """``value`` if it is a finite real number (a shift, a signed level)."""
+    if not (_real(value) and math.isfinite(value)):
+        raise OptionError(f"{name} must be a finite real number, got {value!r}")
+    return value
+
+
+def count(value, name: str, least: int = 1, most: int | None = None) -> int:
+    """``value`` if it is an integer >= ``least`` (1 or 0) and, if given, <= ``most``."""
     if not (isinstance(value, numbers.Integral) and not isinstance(value, bool)
-            and value >= least):
+            and value >= least and (most is None or value <= most)):
+        if most is not None:
+            raise OptionError(f"{name} must be an integer between {least} and {most}, "
+                              f"got {value!r}")
         kind = {1: "a positive integer", 0: "a non-negative integer"}.get(
             least, f"an integer >= {least}")
         raise OptionError(f"{name} must be {kind}")

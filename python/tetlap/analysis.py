@@ -20,7 +20,7 @@ import numbers
 import numpy as np
 import scipy.sparse as sp
 
-from . import _arrays, _core, _sparse, assembly, diagnostics
+from . import _arrays, _core, _options, _sparse, assembly, diagnostics
 from ._interrupt import interruptible
 from .errors import OptionError, ShapeError
 
@@ -48,6 +48,9 @@ class Report:
     reason in ``notes``); the ``*_ok`` flags compare them with the documented tolerances.
     ``nsd_min_eigenvalue`` is the smallest eigenvalue of ``-L`` (dense route) or, for an
     indefinite ``L``, the Rayleigh quotient of the witness (an upper bound on it).
+    Vertices in no tet take no part: ``nsd_min_eigenvalue`` is that of ``-L`` without their
+    empty rows, ``mass_min`` and ``mass_nonpositive`` are over the vertices in tets, and
+    the linear-precision residual is relative to the diameter of those.
     """
 
     n_vertices: int
@@ -142,7 +145,8 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
         What ``L`` is meant to be, if known; it only helps the semidefiniteness check
         (see Notes). Without it, ``L`` is compared with the primal of the mesh.
     negative_tol : float, default 1e-12
-        A weight is negative when ``w < -negative_tol * max|w|``.
+        A weight is negative when ``w < -negative_tol * max|w|`` (a relative tolerance in
+        [0, 1)).
     nsd : bool, default True
         False skips the semidefiniteness check.
 
@@ -195,6 +199,7 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     if kind is not None and not (kind in ("primal", "dual") or (
             isinstance(kind, numbers.Real) and not isinstance(kind, bool) and 0 <= kind <= 1)):
         raise OptionError(f'kind must be None, "primal", "dual" or a float t in [0, 1], got {kind!r}')
+    _options.tolerance(negative_tol, "negative_tol")
     return _check(L, V, T, M, kind=kind, negative_tol=negative_tol, nsd=nsd)
 
 
@@ -268,9 +273,9 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
     )
     if M is not None:
         M = _arrays.matrix(M, n, "M")
-        lumped = np.asarray(M.sum(axis=1)).ravel()
-        report.mass_min = float(lumped.min())
-        report.mass_nonpositive = int((lumped[diagnostics.referenced_vertices(T, n)] <= 0).sum())
+        lumped = np.asarray(M.sum(axis=1)).ravel()[diagnostics.referenced_vertices(T, n)]
+        report.mass_min = float(lumped.min())          # over the vertices in tets
+        report.mass_nonpositive = int((lumped <= 0).sum())
         report.mass_total = float(M.sum())
         report.mesh_volume = (float(np.abs(diagnostics.signed_volumes(V, T)).sum())
                               if mesh_volume is None else mesh_volume)
@@ -368,8 +373,11 @@ def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool):
             return negatives == 0, None, (f"inertia of a sparse LDL^T of -L + {NSD_RTOL:.0e} "
                                           f"diag(|L_ii|): {negatives} negative pivots ({reason})")
         reason += "; the LDL^T pivoted off the diagonal"
-    if n <= DENSE_NSD_MAX:
-        verdict, lam = _dense(S, diagonal)
+    # a vertex in no tet whose row is empty takes no part (its eigenvalue 0 is no answer)
+    part = diagnostics.referenced_vertices(T, n) | (np.asarray(abs(S).sum(axis=1)).ravel() > 0)
+    if part.sum() <= DENSE_NSD_MAX:
+        verdict, lam = (_dense(S, diagonal) if part.all()
+                        else _dense(S[part][:, part], diagonal[part]))
         return verdict, lam, f"dense eigenvalues ({reason})"
     limit = DENSE_NSD_MAX if n <= SPARSE_NSD_MAX else SPARSE_NSD_MAX
     return None, None, f"undetermined: {reason} (n > {limit})"

@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from . import assembly, meshes
+from . import _options, assembly, meshes
 from ._progress import bar
 from .info import report
 from .mesh import Mesh
@@ -48,6 +48,8 @@ def delaunay(n_tets: int, seed: int = 0):
     qhull's order (flat hull slivers removed)."""
     from scipy.spatial import Delaunay
 
+    _options.count(n_tets, "n_tets")
+    _options.count(seed, "seed", 0)
     points = np.random.default_rng(seed).uniform(size=(round(n_tets / TETS_PER_POINT), 3))
     T = Delaunay(points).simplices.astype(np.int64)
     e = points[T[:, 1:]] - points[T[:, :1]]
@@ -57,6 +59,7 @@ def delaunay(n_tets: int, seed: int = 0):
 
 def shuffled(V, T, seed: int = 1):
     """The mesh with its vertices and its tets in random order."""
+    _options.count(seed, "seed", 0)
     rng = np.random.default_rng(seed)
     perm = rng.permutation(len(V))
     inverse = np.empty_like(perm)
@@ -179,6 +182,8 @@ def _selected(names, only) -> list[str]:
 def time_mesh(label: str, V, T, threads=None, repeat: int = 5, only=None,
               progress: bool = True) -> list[dict]:
     """Time the cases on one mesh; one record per case."""
+    _options.count(repeat, "repeat")
+    _options.threads(threads)
     cases = _cases(V, T, threads)
     names = _selected(list(cases), only)
     times: dict[str, list[float]] = {name: [] for name in names}
@@ -203,6 +208,8 @@ def run(kinds=KINDS, sizes=("100k",), files=(), threads=None, repeat=5, only=Non
     """Time every selected case on every (kind, size) mesh and every file."""
     from . import io
 
+    _options.count(repeat, "repeat")
+    _options.threads(threads)
     records = []
     for size in sizes:
         for kind in kinds:

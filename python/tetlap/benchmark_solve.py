@@ -31,6 +31,8 @@ import time
 
 import numpy as np
 
+from . import _options
+
 #: The meshes of the bench: name -> how to make it.
 MESHES = {
     "ball 189k": ("ball", 30000),
@@ -145,7 +147,9 @@ def _child(case: str, path: str, cap: float) -> dict:
 def run(meshes=tuple(MESHES), cases=CASES, cap: float = 300.0, meshes_dir=None,
         progress: bool = True) -> list[dict]:
     """One record per (mesh, case): ``mesh, n_tets, case, status, seconds, assembly_s,
-    over_assembly, peak_rss_mb`` and, where the case has them, ``info`` and ``solve_s``."""
+    over_assembly, peak_rss_mb`` and, where the case has them, ``info`` and ``solve_s``.
+    ``cap``: seconds (> 0) each case may run."""
+    _options.positive(cap, "cap")
     records = []
     with tempfile.TemporaryDirectory() as folder:
         for name in meshes:

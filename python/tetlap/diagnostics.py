@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _arrays, _core, _meshobj
+from . import _arrays, _core, _meshobj, _options
 
 __all__ = [
     "DELAUNAY_RTOL",
@@ -59,7 +59,7 @@ def _vertex_count(T: np.ndarray, n: int | None) -> int:
     needed = int(T.max()) + 1
     if n is None:
         return needed
-    return int(n)
+    return int(_options.count(n, "n", needed))  # every index of T below n
 
 
 def _tets(T) -> np.ndarray:
@@ -180,7 +180,9 @@ def orientation(V, T=None) -> np.ndarray:
 
 @_arrays.takes_mesh_object
 def degenerate_tets(V, T=None, rtol: float = 1e-12) -> np.ndarray:
-    """Boolean (m,): tets with ``|Vol| <= rtol * mean|Vol|`` (exactly flat ones included)."""
+    """Boolean (m,): tets with ``|Vol| <= rtol * mean|Vol|`` (exactly flat ones included);
+    ``rtol`` a relative tolerance in [0, 1)."""
+    _options.tolerance(rtol, "rtol")
     vol = np.abs(signed_volumes(V, T))
     return vol <= rtol * vol.mean()
 
@@ -210,7 +212,8 @@ def non_delaunay_faces(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     """Boolean per interior face (order of :func:`interior_faces`): the opposite vertex of
     the second tet lies strictly inside the circumsphere of the first (up to ``rtol``
     relative to the lifted determinant's Hadamard bound). In exact arithmetic the test is
-    symmetric in the two tets. R^3 only."""
+    symmetric in the two tets. R^3 only. ``rtol``: a relative tolerance in [0, 1)."""
+    _options.tolerance(rtol, "rtol")
     V, T = _geometry(V, T)
     T, (_, interior, _) = _face_sets(T, len(V))
     return _core.non_delaunay(V, T, interior, float(rtol))
@@ -219,7 +222,9 @@ def non_delaunay_faces(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
 @_arrays.takes_mesh_object
 def non_delaunay_tets(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     """Boolean (m,): tets with a face whose neighbour's opposite vertex is inside their
-    circumsphere (either side of the face counts)."""
+    circumsphere (either side of the face counts); ``rtol`` as for
+    :func:`non_delaunay_faces`."""
+    _options.tolerance(rtol, "rtol")
     V, T = _geometry(V, T)
     T, (_, interior, _) = _face_sets(T, len(V))
     flags = _core.non_delaunay(V, T, interior, float(rtol))
@@ -251,6 +256,7 @@ def summary(V, T=None, rtol: float = DELAUNAY_RTOL) -> dict:
     >>> s["n_tets"], s["n_boundary_faces"], s["non_delaunay_face_fraction"]
     (48, 48, 0.0)
     """
+    _options.tolerance(rtol, "rtol")
     return _summary(*_geometry(V, T), rtol)[0]
 
 

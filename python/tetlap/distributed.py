@@ -29,7 +29,7 @@ import sys
 
 import numpy as np
 
-from . import assembly
+from . import _options, assembly
 
 __all__ = ["assemble", "load_share", "dirichlet", "eigs", "boundary_rows", "info", "to_scipy"]
 
@@ -185,6 +185,7 @@ def to_scipy(A, root: int = 0):
     NumPy array); None on the other ranks. For tests and small problems."""
     import scipy.sparse as sp
 
+    _options.count(root, "root", 0)
     comm = A.getComm().tompi4py()
     if hasattr(A, "getValuesCSR"):
         lo, _ = A.getOwnershipRange()
@@ -229,8 +230,10 @@ def dirichlet(L, fixed, values, rhs=None, *, rtol: float = 1e-10):
 
     ``fixed``: global vertex ids (any rank may pass any of them; each uses those it owns);
     ``values``: a scalar or one value per entry of ``fixed``; ``rhs``: None or the full
-    (n,) right-hand side on every rank. Returns the solution ``Vec``.
+    (n,) right-hand side on every rank; ``rtol`` KSP's relative tolerance in [0, 1).
+    Returns the solution ``Vec``.
     """
+    _options.tolerance(rtol, "rtol")
     PETSc = _petsc()
     lo, hi = L.getOwnershipRange()
     fixed = np.asarray(fixed, dtype=np.int64)
@@ -262,6 +265,8 @@ def eigs(L, M, k: int = 10, fixed=(), *, sigma: float = -1e-3):
     """The ``k`` smallest eigenvalues of ``-L_II f = lambda M_II f`` (Eq. 30) with SLEPc:
     generalised Hermitian problem, shift-and-invert around ``sigma`` with a MUMPS LU.
     ``M`` a ``Vec`` (lumped) or ``Mat``; ``fixed`` global ids. Returns eigenvalues (k,)."""
+    _options.count(k, "k")
+    _options.finite(sigma, "sigma")
     PETSc = _petsc()
     SLEPc = _slepc()
 

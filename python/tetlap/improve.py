@@ -355,9 +355,11 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
             raise ShapeError(f"fixed must have shape ({n},), got {fixed.shape}")
     check_float_range(V0, T)
     before = dual_statistics(V0, T)
-    scale = unit_scale(V0)
-    objective = Objective(V0 / scale, T, fixed, margin=margin, barrier=barrier,
-                          regularization=regularization, threads=threads)
+    # vertices in no tet take no part (they stay where they are)
+    used, T_used = _arrays.used_vertices(V0, T)
+    scale = unit_scale(V0[used])
+    objective = Objective(V0[used] / scale, T_used, fixed[used], margin=margin,
+                          barrier=barrier, regularization=regularization, threads=threads)
     x0 = objective.start()
     history: list[float] = []
     phi0 = objective(x0)[0]
@@ -387,7 +389,9 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
     seconds = time.perf_counter() - start
     x = x0 + best * (x - x0)
     phi1 = objective(x)[0]
-    X = objective.positions(x) * scale
+    X = V0.copy()
+    moved = used[objective.free]
+    X[moved] = objective.positions(x)[objective.free] * scale
     return Improvement(V=X, before=before, after=dual_statistics(X, T), objective=(phi0, phi1),
                        iterations=iterations, evaluations=objective.evaluations,
                        seconds=seconds, message=message, moved=len(objective.free),

@@ -26,14 +26,14 @@ from __future__ import annotations
 import numpy as np
 
 from . import _arrays, _options, assembly, diagnostics
-from ._float_range import check_float_range, unit_scale
+from ._float_range import check_float_range
 from ._progress import Stages
 from .errors import ShapeError, TetlapError
 from .analysis import NEGATIVE_TOL, _check, check
 from .regular import RegularWeights, regular_weights
 
 __all__ = ["report", "regular_summary", "plot", "plot_names", "PAIRS", "SCHEMA_VERSION",
-           "REGULAR_TIME_LIMIT", "REGULAR_TIME_SHARE", "REGULAR_MAX_TETS"]
+           "REGULAR_MAX_TETS"]
 
 #: The version of the report's layout (its keys and their meaning), the first key of
 #: ``tetlap info --json``; raised with every change, each recorded in the CHANGELOG.
@@ -148,8 +148,7 @@ def regular_summary(V, T, result: RegularWeights | None = None, *, nsd: bool = F
     T : (m, 4) array-like of integers
     result : RegularWeights, optional
         :func:`tetlap.regular_weights` of this mesh (computed when None, with
-        ``time_limit``; on a copy rescaled by a power of two when the mesh is far outside
-        everyday units, so that its NumPy steps stay in the float64 range).
+        ``time_limit``).
     nsd : bool, default False
         Also check negative semidefiniteness of the three Laplacians (slow on big meshes).
     time_limit : float, optional
@@ -186,15 +185,13 @@ def regular_summary(V, T, result: RegularWeights | None = None, *, nsd: bool = F
     T = _arrays.elements(T, 4)
     if V.shape[1] != 3:
         raise ShapeError(f"regular weights need points in R^3, got V of shape {V.shape}")
-    scale = 1.0
     if result is None:
-        scale = unit_scale(V)
-        result = regular_weights(V / scale, T, time_limit=time_limit)
+        result = regular_weights(V, T, time_limit=time_limit)
     if len(result.weights) != len(V):
         raise ShapeError(f"the result has {len(result.weights)} weights, the mesh "
                          f"{len(V)} vertices")
     reports = dict(reports or {})
-    weights = result.weights * scale**2 if result.weights.any() else None
+    weights = result.weights if result.weights.any() else None
     kinds = {"dual": ("dual", None), "weighted_dual": ("dual", weights),
              "primal": ("primal", None)}
     for key, (kind, w) in kinds.items():
@@ -215,8 +212,8 @@ def regular_summary(V, T, result: RegularWeights | None = None, *, nsd: bool = F
         "nsd": {k: reports[k]["nsd"] for k in kinds} if nsd else None,
         "linear_precision_weighted_dual": reports["weighted_dual"]["linear_precision_ok"],
         "masses_lost": int(len(result.masses_lost)),
-        "mass_min": {"dual": result.mass_min_plain * scale**3,
-                     "weighted_dual": result.mass_min_weighted * scale**3},
+        "mass_min": {"dual": result.mass_min_plain,
+                     "weighted_dual": result.mass_min_weighted},
         "violated_faces": int(len(result.violated_faces)),
         "certificate_faces": int(len(result.certificate_faces)),
         "iterations": result.iterations,

@@ -255,3 +255,35 @@ fn bad_input_is_an_error_not_a_panic() {
     let cancelled = Options { cancel: Some(cancel), ..Default::default() };
     assert_eq!(Factorization::new(a.view(), Method::Cholesky, &Ordering::Amd, &cancelled).unwrap_err(), Error::Cancelled);
 }
+
+#[test]
+fn a_singular_matrix_has_a_pivot_tiny_against_its_diagonal() {
+    // -L of the whole grid (constants in its null space) against -L with a vertex dropped
+    let (points, tets) = grid_mesh(3);
+    let mesh = TetView::new(&points, 3, &tets).unwrap();
+    let l = laplacian(&mesh, LaplacianKind::Primal, &Options::default()).unwrap();
+    let singular = Matrix { n: l.n, indptr: l.indptr.clone(), indices: l.indices.clone(), data: l.data.iter().map(|v| -v).collect() };
+    let opts = Options::default();
+    let f = Factorization::new(singular.view(), Method::Ldlt, &Ordering::Amd, &opts).unwrap();
+    let (row, ratio) = f.smallest_pivot();
+    assert!(ratio < 1e-13 && row < l.n, "{row} {ratio}");
+    let a = Matrix::grid(3, 0.0);
+    for method in [Method::Cholesky, Method::Ldlt] {
+        let f = Factorization::new(a.view(), method, &Ordering::Amd, &opts).unwrap();
+        assert!(f.smallest_pivot().1 > 1e-3, "{method:?} {:?}", f.smallest_pivot());
+        let pivots = f.pivots();
+        assert_eq!(pivots.len(), a.n);
+        assert!(pivots.iter().all(|&d| d > 0.0));
+    }
+    // a symmetric diagonal scaling changes no ratio
+    let s: Vec<f64> = (0..a.n).map(|i| 10f64.powi(i as i32 % 7 - 3)).collect();
+    let mut scaled = Matrix { n: a.n, indptr: a.indptr.clone(), indices: a.indices.clone(), data: a.data.clone() };
+    for i in 0..a.n {
+        for k in a.indptr[i]..a.indptr[i + 1] {
+            scaled.data[k] *= s[i] * s[a.indices[k] as usize];
+        }
+    }
+    let plain = Factorization::new(a.view(), Method::Cholesky, &Ordering::Identity, &opts).unwrap().smallest_pivot();
+    let other = Factorization::new(scaled.view(), Method::Cholesky, &Ordering::Identity, &opts).unwrap().smallest_pivot();
+    assert!((plain.1 - other.1).abs() <= 1e-12 * plain.1, "{plain:?} {other:?}");
+}

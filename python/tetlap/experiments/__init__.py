@@ -19,6 +19,7 @@ import importlib
 import pathlib
 from typing import NamedTuple
 
+from .. import _options
 from ..errors import OptionError
 from ._output import Output, folder
 
@@ -62,7 +63,8 @@ CORPUS_NAMES = tuple(e.name for e in EXPERIMENTS if e.corpus)
 
 def run(name: str, *, quick: bool = False, out=None, seed: int = 0, meshes=None) -> pathlib.Path:
     """Run experiment ``name``; return the folder with its CSV, PNG and summary. ``meshes``
-    (a folder of mesh files) only for :data:`CORPUS_NAMES`."""
+    (a folder of mesh files) only for :data:`CORPUS_NAMES`; ``seed`` a non-negative integer."""
+    _options.count(seed, "seed", 0)
     experiment = next((e for e in EXPERIMENTS if e.name == name), None)
     if experiment is None:
         raise OptionError(f"unknown experiment {name!r}; choose one of {', '.join(NAMES)}")

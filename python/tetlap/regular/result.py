@@ -54,7 +54,9 @@ class RegularWeights:
     n_negative_interior_plain, n_negative_interior_weighted : int, negative weights (as
         :func:`tetlap.check` counts them, :func:`tetlap.properties.negative_weights`) on
         edges whose endpoints are not both on the boundary, plain dual vs weighted dual.
-    mass_min_plain, mass_min_weighted : float, smallest circumcentric mass (cell volume).
+    mass_min_plain, mass_min_weighted : float, smallest circumcentric mass (cell volume)
+        over the vertices in tets, in the caller's units (inf or 0 when the cube of the
+        mesh's size leaves the float64 range).
     masses_lost : (k,) int64, vertices whose plain circumcentric mass is positive but whose
         weighted one is not (the mass step's target: none).
     masses_below_floor : (k,) int64, vertices whose weighted mass fell below ``mass_floor``

@@ -183,6 +183,14 @@ def _aims(problem: Problem, sign: np.ndarray, floor: float):
     return floors, floors + 0.1 * floors
 
 
+def _highs_options(budget: Budget | None, **options) -> dict:
+    """``options`` of HiGHS, with the time left to ``budget``'s deadline if it has one."""
+    seconds = None if budget is None else budget.seconds()
+    if seconds is not None:
+        options["time_limit"] = max(seconds, 0.01)
+    return options
+
+
 def _lp(problem: Problem, rows: np.ndarray, budget: Budget) -> np.ndarray | None:
     """Gordan's alternative on the conditions ``rows`` by an LP (HiGHS dual simplex): ``y
     >= 0`` with ``sum y = 1`` and ``A[rows]^T y = 0``. Every weight entering those rows is
@@ -196,11 +204,8 @@ def _lp(problem: Problem, rows: np.ndarray, budget: Budget) -> np.ndarray | None
     A_eq = sp.vstack([M.T, sp.csr_array(np.ones((1, len(rows))))]).tocsr()
     b_eq = np.zeros(len(cols) + 1)
     b_eq[-1] = 1.0
-    options = {"maxiter": LP_ITERATIONS, "primal_feasibility_tolerance": 1e-10,
-               "dual_feasibility_tolerance": 1e-10}
-    seconds = budget.seconds()
-    if seconds is not None:
-        options["time_limit"] = max(seconds, 0.01)
+    options = _highs_options(budget, maxiter=LP_ITERATIONS, primal_feasibility_tolerance=1e-10,
+                             dual_feasibility_tolerance=1e-10)
     res = interruptible(linprog, np.zeros(len(rows)), A_eq=A_eq, b_eq=b_eq, bounds=(0.0, None),
                         method="highs-ds", options=options)
     if res.status != 0:
@@ -247,7 +252,7 @@ def _certificate(V, T, cond: Conditions, problem: Problem, short: np.ndarray, bu
 
 
 def quadratic(V, problem: Problem, floors: np.ndarray, aims: np.ndarray, lo: np.ndarray,
-              hi: np.ndarray) -> np.ndarray | None:
+              hi: np.ndarray, budget: Budget | None = None) -> np.ndarray | None:
     """Weights ``w = eps x^T Q x`` (``Q`` symmetric), in problem units, that lift every
     condition to its floor, or None. A quadratic lifting ``|x|^2 - x^T Q x`` makes the mesh
     regular exactly when it is Delaunay in the metric ``I - Q``: the structured meshes whose
@@ -255,7 +260,8 @@ def quadratic(V, problem: Problem, floors: np.ndarray, aims: np.ndarray, lo: np.
     first-order search from ``w = 0`` is slow on them. One LP with 7 unknowns: the
     direction ``Q`` (``|Q_ij| <= 1``) maximising the smallest rise of the conditions below
     their floors at ``w = 0``; then the smallest ``eps`` that lifts those to their aims,
-    if it keeps the others at their floors and ``w`` within the bounds."""
+    if it keeps the others at their floors and ``w`` within the bounds. The LP stops at
+    ``budget``'s deadline, if it has one (then None)."""
     from scipy.optimize import linprog
 
     low = problem.g0 < floors
@@ -266,17 +272,16 @@ def quadratic(V, problem: Problem, floors: np.ndarray, aims: np.ndarray, lo: np.
     X = X / size
     phi = np.column_stack([X[:, 0] ** 2, X[:, 1] ** 2, X[:, 2] ** 2, 2 * X[:, 0] * X[:, 1],
                            2 * X[:, 0] * X[:, 2], 2 * X[:, 1] * X[:, 2]])     # (n, 6)
-    # the rise of every condition per unit Q, in problem units (w = size^2 x^T Q x)
-    B = np.einsum("ck,ckp->cp", problem.coefficients / problem.scale[problem.vertices],
-                  phi[problem.vertices]) * size ** 2
-    rows = B[low]
+    # the rise of the low conditions per unit Q, in problem units (w = size^2 x^T Q x)
+    coefficients = problem.coefficients / problem.scale[problem.vertices]
+    rows = np.einsum("ck,ckp->cp", coefficients[low], phi[problem.vertices[low]]) * size ** 2
     res = linprog(np.r_[np.zeros(6), -1.0], A_ub=np.hstack([-rows, np.ones((len(rows), 1))]),
                   b_ub=np.zeros(len(rows)), bounds=[(-1.0, 1.0)] * 6 + [(None, 1.0)],
-                  method="highs-ds")
-    if res.status != 0 or not -res.fun > 0:
+                  method="highs-ds", options=_highs_options(budget, presolve=False))
+    rise = rows @ res.x[:6] if res.status == 0 else None
+    if rise is None or not -res.fun > 0 or not (rise > 0).all():  # (within HiGHS' tolerance)
         return None
-    rise = B @ res.x[:6]
-    eps = float(np.max((aims[low] - problem.g0[low]) / rise[low]))
+    eps = float(np.max((aims[low] - problem.g0[low]) / rise))
     u = eps * size ** 2 * (phi @ res.x[:6]) / problem.scale
     ok = (problem.margins(u) >= floors).all() and (u >= lo).all() and (u <= hi).all()
     return u if ok else None
@@ -300,7 +305,7 @@ def search(V, T, cond: Conditions, problem: Problem, sign: np.ndarray, target: f
     positive margin."""
     out = Outcome(status="undecided", u=np.zeros(problem.n))
     floors, aims = _aims(problem, sign, target)
-    u = quadratic(V, problem, floors, aims, lo, hi) if (sign == 0).any() else None
+    u = quadratic(V, problem, floors, aims, lo, hi, budget) if (sign == 0).any() else None
     if u is not None:
         out.status, out.u, out.floor, out.floors, out.aims = "reached", u, target, floors, aims
         notes.append("a quadratic lifting makes it regular (Delaunay in some metric)")
@@ -316,14 +321,22 @@ def search(V, T, cond: Conditions, problem: Problem, sign: np.ndarray, target: f
         if stop == "done":
             out.status, out.u, out.floor, out.floors, out.aims = "reached", u, target, floors, aims
             return out
+        if stop == "deadline" or budget.late():
+            notes.append(f"stopped at the time limit after {out.iterations} iterations")
+            return out
         notes.append("boundary weights >= 0 were not enough: weights of either sign")
     floors_tried = (target, target / 10, target / 100)
     for level, floor in enumerate(floors_tried):
+        if budget.iterations == 0:
+            notes.append(f"stopped at the iteration budget ({out.iterations} iterations)")
+            return out
         floors, aims = _aims(problem, sign, floor)
         out.floor, out.floors, out.aims = floor, floors, aims
         iterations = budget.iterations // (len(floors_tried) - level)
         if level < len(floors_tried) - 1:          # a stuck search is better off certified early
             iterations = min(iterations, LEVEL_ITERATIONS)
+        if iterations == 0:                        # a small budget: the lower floors get it
+            continue
         # a first look for a certificate early in the first level: most non-regular meshes
         # show their obstruction within a few hundred iterations
         checkpoints = [CHECKPOINT, iterations] if level == 0 and iterations > CHECKPOINT else [iterations]
@@ -342,6 +355,8 @@ def search(V, T, cond: Conditions, problem: Problem, sign: np.ndarray, target: f
                 notes.append(f"stopped at the time limit after {out.iterations} iterations")
                 return out
             early = stop == "iterations" and checkpoint < iterations
+            if stop != "stalled" and out.iterations < CHECKPOINT:
+                continue    # LPs cost far more than an iteration: not within a small budget
             certificate, solved = _certificate(V, T, cond, problem, short, budget, first=early)
             out.lps += solved
             if certificate is not None:

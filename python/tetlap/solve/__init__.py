@@ -34,7 +34,7 @@ from ._checks import RESIDUAL_TOL, SOLVERS
 from ._boundary import dual_boundary_areas, fem_boundary_areas
 from ._dirichlet import dirichlet
 from ._eigs import eigs
-from .factor import Factor, factorize
+from .factor import PIVOT_RTOL, Factor, factorize
 from .info import SolveInfo
 from ._neumann import neumann, neumann_primal_kkt
 
@@ -51,5 +51,6 @@ __all__ = [
     "CompatibilityError",
     "SolveError",
     "RESIDUAL_TOL",
+    "PIVOT_RTOL",
     "SOLVERS",
 ]

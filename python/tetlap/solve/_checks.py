@@ -29,7 +29,7 @@ def flag(value, name: str):
 
 
 def rtol(value, name: str = "rtol") -> float:
-    return float(_options.non_negative(value, name))
+    return float(_options.tolerance(value, name))
 
 
 def mask(fixed, n: int) -> np.ndarray:

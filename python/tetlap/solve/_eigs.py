@@ -3,14 +3,12 @@ smallest by Sylvester's law of inertia."""
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 import scipy.sparse as sp
 
-from .. import _arrays
+from .. import _arrays, _options
 from .._progress import Stages
-from ..errors import OptionError, SolveError
+from ..errors import SolveError
 from . import _amg, _checks
 from .factor import Factor
 from .info import SolveInfo
@@ -97,12 +95,9 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None, solver: s
     fixed = np.zeros(n, dtype=bool) if fixed is None else _checks.mask(fixed, n)
     referenced = (np.asarray(abs(L).sum(axis=1)).ravel() > 0) | (np.asarray(abs(M).sum(axis=1)).ravel() > 0)
     free = np.flatnonzero(~fixed & referenced)
-    if not isinstance(k, numbers.Integral) or isinstance(k, bool) or not 0 < k < len(free):
-        raise OptionError(f"k must be an integer between 1 and {len(free) - 1}, got {k!r}")
-    k = int(k)
-    if sigma is not None and not (isinstance(sigma, numbers.Real) and not isinstance(sigma, bool)
-                                  and np.isfinite(sigma)):
-        raise OptionError(f"sigma must be a finite real number or None, got {sigma!r}")
+    k = int(_options.count(k, "k", 1, len(free) - 1))
+    if sigma is not None:
+        _options.finite(sigma, "sigma")
     _checks.solver(solver)
     _checks.flag(progress, "progress")
     A = sp.csr_array(-L[free][:, free])

@@ -51,6 +51,8 @@ def _lu(A, b, info):
 def _refined(A, b, info, progress):
     """The cholesky solve, refined in extended precision when its answer is finite."""
     F = _factor(A, info, progress)
+    if F._tiny is not None:
+        raise SolveError(F._tiny)
     with info.phase("solve"):
         x = interruptible(F._raw, b[:, None])[:, 0]
         if np.isfinite(x).all():

@@ -35,7 +35,7 @@ def neumann(L, g, rhs=None, *, gauge="mean", rtol: float = 1e-6, solver: str = "
         of that vertex (zero mean elsewhere).
     rtol : float, default 1e-6
         The data must integrate to zero over each component: ``|sum| <= rtol sum |data|``
-        (a finite number >= 0). The defect within it is removed as a Lagrange multiplier
+        (a relative tolerance in [0, 1)). The defect within it is removed as a Lagrange multiplier
         of the gauge removes it: spread evenly (``"mean"``) or at the gauge vertex.
     solver, progress, return_info
         As for :func:`dirichlet`: one vertex per component is pinned to 0 (the other

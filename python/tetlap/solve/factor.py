@@ -38,6 +38,17 @@ __all__ = ["factorize", "Factor", "ORDERINGS", "nested_dissection"]
 ORDERINGS = ("auto", "nd", "amd")
 
 
+#: A pivot at most this fraction of its row's diagonal entry makes a factorization singular
+#: to working precision (``Factor.solve`` refuses it; the ratio does not change under a
+#: diagonal scaling): for a positive definite matrix, a Jacobi-scaled condition number of at
+#: least ``1 / PIVOT_RTOL`` (7e13), where an answer may be wrong in its leading digits
+#: although its residual is small (the pure Neumann ``-L``, singular, gave answers of 1e17
+#: that passed the residual check). An ``LDL^T`` (no pivoting) with such a pivot hands over
+#: to SuperLU, whose pivots are measured against ``sqrt(|a_ii a_jj|)`` of their row ``i``
+#: and column ``j``.
+PIVOT_RTOL = 64 * float(np.finfo(np.float64).eps)
+
+
 #: From this many rows on, METIS runs in a child process (0.6 s to start) so that Ctrl-C
 #: is answered during it (pymetis holds the GIL: 2.4 s at 1M tets).
 METIS_CHILD_MIN = 100_000
@@ -98,6 +109,7 @@ class Factor:
         self._core = None
         self._lu = None
         self._order = None
+        self._tiny: str | None = None      # why the factorization is singular, if it is
         if solver == "cholesky":
             self._factor_core(A, ordering, method)
         else:
@@ -130,7 +142,27 @@ class Factor:
                 self._core = interruptible(_core.Factor, self.n, _sparse.arrays(A), "ldlt",
                                            self._order)
                 self.info.method = "LDL^T"
+        self._tiny = self._smallest_pivot()
         stages.done()
+
+    def _smallest_pivot(self) -> str | None:
+        """Why the factorization is singular to working precision (:data:`PIVOT_RTOL`), or
+        None."""
+        if self._core is not None:
+            row, ratio = self._core.smallest_pivot()
+        else:
+            # Pr A Pc = L U: pivot k sits in row argsort(perm_r)[k], column argsort(perm_c)[k]
+            rows, cols = np.argsort(self._lu.perm_r), np.argsort(self._lu.perm_c)
+            d = np.abs(self._A.diagonal())
+            scale = np.sqrt(d[rows] * d[cols])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratios = np.where(scale > 0, np.abs(self._lu.U.diagonal()) / scale, np.inf)
+            k = int(np.argmin(ratios)) if len(ratios) else 0
+            row, ratio = (int(rows[k]), float(ratios[k])) if len(ratios) else (0, np.inf)
+        if ratio > PIVOT_RTOL:
+            return None
+        return (f"the matrix is singular to working precision: the pivot of row {row} is "
+                f"{ratio:.1e} of its diagonal entry ({self.info.method})")
 
     def _factor_lu(self, A):
         from scipy.sparse.linalg import splu
@@ -141,6 +173,7 @@ class Factor:
                 self._lu = interruptible(splu, sp.csc_array(A))
             except RuntimeError as e:  # "Factor is exactly singular"
                 raise SolveError(f"the matrix is singular (SuperLU: {e})") from None
+            self._tiny = self._smallest_pivot()
 
     def refactor(self, A) -> None:
         """Factorizes new values ``A`` (``(n, n)``, non-zeros within the pattern of the
@@ -164,6 +197,7 @@ class Factor:
                 self._core = interruptible(_core.Factor, self.n, _sparse.arrays(self._A), "ldlt",
                                            self._order)
                 self.info.method = "LDL^T"
+        self._tiny = self._smallest_pivot()
 
     def _raw(self, b: np.ndarray) -> np.ndarray:
         """The solution for ``b`` (n, k), unchecked."""
@@ -171,15 +205,27 @@ class Factor:
             return self._lu.solve(b)
         return self._core.solve(np.ascontiguousarray(b.T)).T
 
+    def _to_lu(self, why: str) -> None:
+        """SuperLU instead of an ``LDL^T`` without pivoting, which is not backward stable on
+        indefinite matrices."""
+        self.info.fallbacks.append(f"LDL^T: {why}")
+        self._core = None
+        self._factor_lu(self._A)
+
     def solve(self, b) -> np.ndarray:
         """``x`` with ``A x = b`` for ``b`` of shape ``(n,)`` or ``(n, k)`` (float64, a new
-        array), each column residual-checked; :class:`tetlap.SolveError` if one fails."""
+        array), each column residual-checked; :class:`tetlap.SolveError` if one fails or
+        the matrix is singular to working precision (:data:`PIVOT_RTOL`)."""
         arr = _arrays._as_array(b, "b")
         if arr.ndim not in (1, 2) or arr.shape[0] != self.n:
             raise ShapeError(f"b must have shape ({self.n},) or ({self.n}, k), got {arr.shape}")
         flat = arr.reshape(self.n, -1)
         flat = np.column_stack([_arrays.vector(flat[:, j], self.n, "b") for j in range(flat.shape[1])]) \
             if flat.shape[1] else np.zeros((self.n, 0))
+        if self._tiny is not None and self._core is not None and self.info.method == "LDL^T":
+            self._to_lu(self._tiny)
+        if self._tiny is not None:
+            raise SolveError(self._tiny)
         with self.info.phase("solve"):
             x = interruptible(self._raw, flat) if flat.shape[1] else flat.copy()
         try:
@@ -187,10 +233,9 @@ class Factor:
         except SolveError:
             if self._core is None or self.info.method == "LL^T":
                 raise
-            # an LDL^T without pivoting is not backward stable on indefinite matrices
-            self.info.fallbacks.append("LDL^T: the residual check failed")
-            self._core = None
-            self._factor_lu(self._A)
+            self._to_lu("the residual check failed")
+            if self._tiny is not None:
+                raise SolveError(self._tiny) from None
             with self.info.phase("solve"):
                 x = interruptible(self._raw, flat)
             _checks.accept(self._A, x, flat, "factorized system", self.info, self._norm)

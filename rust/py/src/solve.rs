@@ -77,6 +77,11 @@ impl PyFactor {
         (i.negative, i.zero, i.positive)
     }
 
+    /// `(row, |pivot| / |a_row,row|)` of the smallest pivot against its diagonal entry.
+    fn smallest_pivot(&self) -> (usize, f64) {
+        self.inner.read().unwrap_or_else(|e| e.into_inner()).smallest_pivot()
+    }
+
     /// The matrix order.
     #[getter]
     fn n(&self) -> usize {

@@ -34,8 +34,8 @@ pub struct OperatorCheck {
     pub n_edges_inner: usize,
     /// Negative weights among those.
     pub n_negative_inner: usize,
-    /// `max_i |(L X)_i|` over interior vertices, relative to `max|L| * diameter`, for a
-    /// mesh in R^3 with interior vertices (`None` otherwise).
+    /// `max_i |(L X)_i|` over interior vertices, relative to `max|L| * diameter` (of the
+    /// vertices in cells), for a mesh in R^3 with interior vertices (`None` otherwise).
     pub linear_precision: Option<f64>,
 }
 
@@ -138,7 +138,7 @@ pub fn check_operator<'a, S: Simplex>(
             }
         }
         if let Some(r) = residual {
-            let diameter = bounding_box_diagonal(mesh.points());
+            let diameter = bounding_box_diagonal(mesh);
             let scale = if total.scale > 0.0 { total.scale } else { 1.0 };
             total.linear_precision = Some(r / (scale * diameter));
         }
@@ -146,14 +146,22 @@ pub fn check_operator<'a, S: Simplex>(
     })
 }
 
-/// The length of the diagonal of the bounding box of `points` (rows of 3).
-fn bounding_box_diagonal(points: &[f64]) -> f64 {
+/// The length of the diagonal of the bounding box of the vertices of `mesh`'s cells (a
+/// vertex in no cell takes no part), computed without overflow.
+fn bounding_box_diagonal<S: Simplex>(mesh: &MeshView<S>) -> f64 {
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for p in points.chunks_exact(3) {
+    let points = mesh.points();
+    for &v in mesh.cells().iter().flat_map(|c| c.as_ref()) {
+        let p = &points[3 * v as usize..3 * v as usize + 3];
         for a in 0..3 {
             lo[a] = lo[a].min(p[a]);
             hi[a] = hi[a].max(p[a]);
         }
     }
-    (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt()
+    let extent = |a: usize| (hi[a] - lo[a]).max(0.0);
+    let largest = (0..3).map(extent).fold(0.0, f64::max);
+    if largest == 0.0 || !largest.is_finite() {
+        return largest;
+    }
+    largest * (0..3).map(|a| (extent(a) / largest).powi(2)).sum::<f64>().sqrt()
 }

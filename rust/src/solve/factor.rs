@@ -88,6 +88,8 @@ pub struct Factorization {
     indices: Vec<usize>,
     symbolic: SymbolicCholesky<usize>,
     values: Vec<f64>,
+    /// [`Factorization::smallest_pivot`].
+    smallest: (usize, f64),
 }
 
 fn faer_error(e: FaerError) -> Error {
@@ -136,7 +138,7 @@ impl Factorization {
         let mut values = Vec::new();
         values.try_reserve_exact(symbolic.len_val()).map_err(|_| Error::OutOfMemory { what: "the factor" })?;
         values.resize(symbolic.len_val(), 0.0);
-        let mut f = Factorization { method, indptr, indices, symbolic, values };
+        let mut f = Factorization { method, indptr, indices, symbolic, values, smallest: (0, f64::INFINITY) };
         opts.cancelled()?;
         f.numeric(a.data)?;
         Ok(f)
@@ -190,7 +192,35 @@ impl Factorization {
                 .factorize_numeric_ldlt(&mut self.values, a, Side::Lower, LdltRegularization::default(), Par::Seq, stack, Default::default())
                 .map(|_| ())
                 .map_err(|LdltError::ZeroPivot { index }| Error::Singular { row: row(index) }),
+        }?;
+        // each pivot against its row's diagonal entry (rows with a zero diagonal left out)
+        let mut diagonal = vec![0.0f64; n];
+        for (i, range) in self.indptr.windows(2).enumerate() {
+            for (&j, &v) in self.indices[range[0]..range[1]].iter().zip(&data[range[0]..range[1]]) {
+                if i == j {
+                    diagonal[i] += v;
+                }
+            }
         }
+        self.smallest = (0, f64::INFINITY);
+        for (k, d) in self.pivots().into_iter().enumerate() {
+            let i = self.symbolic.perm().map_or(k, |p| p.arrays().0[k]);
+            let relative = d.abs() / diagonal[i].abs();
+            if diagonal[i] != 0.0 && !(relative >= self.smallest.1) {
+                self.smallest = (i, relative);
+            }
+        }
+        Ok(())
+    }
+
+    /// `(row, |pivot| / |a_row,row|)` of the pivot that is smallest against its row's
+    /// diagonal entry (a ratio invariant under symmetric diagonal scaling; rows with a zero
+    /// diagonal are left out, `(0, inf)` if all are). For a positive definite matrix these
+    /// ratios are the pivots of the Jacobi-scaled matrix, which lie between its smallest
+    /// and largest eigenvalue, so a ratio `r` proves its condition number `>= 1 / r`: a
+    /// ratio of a few units in the last place is a matrix singular to working precision.
+    pub fn smallest_pivot(&self) -> (usize, f64) {
+        self.smallest
     }
 
     /// Solves `A X = B` in place: `rhs` holds `B`, `n x k` column-major (`k` columns of `n`
@@ -222,7 +252,11 @@ impl Factorization {
     /// factorization exists only for positive definite matrices (all `n` positive).
     pub fn inertia(&self) -> Inertia {
         let mut inertia = Inertia { negative: 0, zero: 0, positive: 0 };
-        let mut count = |d: f64| {
+        if self.method == Method::Cholesky {
+            inertia.positive = self.n();
+            return inertia;
+        }
+        for d in self.pivots() {
             if d < 0.0 {
                 inertia.negative += 1
             } else if d > 0.0 {
@@ -230,22 +264,32 @@ impl Factorization {
             } else {
                 inertia.zero += 1
             }
-        };
-        match (self.method, self.symbolic.raw()) {
-            (Method::Cholesky, _) => inertia.positive = self.n(),
-            (Method::Ldlt, SymbolicCholeskyRaw::Simplicial(s)) => {
-                // the diagonal entry leads every column of the simplicial factor
-                s.col_ptr()[..self.n()].iter().for_each(|&start| count(self.values[start]))
-            }
-            (Method::Ldlt, SymbolicCholeskyRaw::Supernodal(s)) => {
-                let factor = SupernodalLdltRef::new(s, &self.values);
-                for i in 0..s.n_supernodes() {
-                    let block = factor.supernode(i).val();
-                    (0..block.ncols()).for_each(|j| count(block[(j, j)]));
-                }
-            }
         }
         inertia
+    }
+
+    /// The pivots in the order of elimination: the entries of `D` for [`Method::Ldlt`], the
+    /// squared diagonal of `L` for [`Method::Cholesky`]. A pivot tiny against the matrix's
+    /// diagonal shows a matrix singular to working precision: for a positive definite
+    /// matrix every pivot lies between its smallest and its largest eigenvalue.
+    pub fn pivots(&self) -> Vec<f64> {
+        let square = |d: f64| if self.method == Method::Cholesky { d * d } else { d };
+        match self.symbolic.raw() {
+            // the diagonal entry leads every column of the simplicial factor
+            SymbolicCholeskyRaw::Simplicial(s) => {
+                s.col_ptr()[..self.n()].iter().map(|&start| square(self.values[start])).collect()
+            }
+            SymbolicCholeskyRaw::Supernodal(s) => {
+                // LL^T and LDL^T share the supernodal layout; the diagonal of each block
+                let factor = SupernodalLdltRef::new(s, &self.values);
+                (0..s.n_supernodes())
+                    .flat_map(|i| {
+                        let block = factor.supernode(i).val();
+                        (0..block.ncols()).map(move |j| square(block[(j, j)]))
+                    })
+                    .collect()
+            }
+        }
     }
 
     /// The matrix order `n`.
