@@ -181,6 +181,8 @@ def test_results_do_not_depend_on_orientation():
     swapped[::2] = swapped[::2][:, [0, 1, 3, 2]]
     np.testing.assert_allclose(h.barycentric, swapped, rtol=1e-9, atol=1e-12)
     np.testing.assert_array_equal(h.tet_faces[::2], g.tet_faces[::2][:, [0, 1, 3, 2]])
+    np.testing.assert_array_equal(g.orientation, np.sign(tetlap.diagnostics.signed_volumes(V, T)))
+    np.testing.assert_array_equal(h.orientation, g.orientation * np.where(np.arange(len(T)) % 2, 1, -1))
 
 
 def test_immersed_mesh_has_the_rotated_centres():
@@ -231,3 +233,15 @@ def test_mesh_objects_are_accepted():
     V, T = tetlap.meshes.ball(100, seed=1)
     g = tetlap.dual_geometry(meshio.Mesh(V, [("tetra", T)]))
     np.testing.assert_array_equal(g.centres, tetlap.dual_geometry(V, T).centres)
+
+
+def test_faces_sort_the_same_by_one_key_or_two():
+    """The face order does not depend on how the records are sorted: one integer key
+    while n^3 fits in int64, two beyond (exercised here with a larger n than the mesh's)."""
+    from tetlap.dual import _Faces
+
+    V, T = tetlap.meshes.ball(300, seed=2)
+    one, two = _Faces(T, len(V)), _Faces(T, 2**22)
+    for name in ("faces", "tet_faces", "records", "counts"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
+    assert (np.lexsort(one.faces.T[::-1]) == np.arange(len(one.faces))).all()

@@ -19,9 +19,7 @@ import itertools
 
 import numpy as np
 
-from . import diagnostics
-from .dec import _parity
-from .dual import dual_geometry
+from .dual import _parity, dual_geometry
 
 #: The flags of a tet at its corners: ``(a, b, c, d)`` for every ordering of the corners.
 _FLAGS = np.array(list(itertools.permutations(range(4))))
@@ -44,9 +42,8 @@ def surfaces(V: np.ndarray, T: np.ndarray, weights, threads):
     edge_point, face_point, tet_point = n, n + E, n + E + F
     key = a * n + b
     edge = lambda p, q: edge_point + np.searchsorted(key, np.minimum(p, q) * n + np.maximum(p, q))
-    orientation = np.sign(diagnostics.signed_volumes(V, T)).astype(np.int64)
     # the piece of every flag: (tet, (a, b, c, d) as corners)
-    sign = orientation[:, None] * _parity(_FLAGS)[None, :]  # (m, 24)
+    sign = g.orientation.astype(np.int64)[:, None] * _parity(_FLAGS)[None, :]  # (m, 24)
     va, vb = T[:, _FLAGS[:, 0]], T[:, _FLAGS[:, 1]]
     p_edge = edge(va, vb)
     p_face = face_point + g.tet_faces[:, _FLAGS[:, 3]]

@@ -15,17 +15,18 @@ import dataclasses
 import numpy as np
 import scipy.sparse as sp
 
-from . import _arrays, _core, analysis, dec
+from . import _arrays, _core, analysis
 from ._docs import shared_docs
-from .dual import DualGeometry, dual_geometry
+from .dual import OUTSIDE_TOL, DualGeometry, _outward, dual_geometry
 from .errors import DegenerateElementError
 
 __all__ = ["cell_laplacian", "CellReport", "ZERO_TOL"]
 
 #: A dual edge counts as zero-length when ``|dual_length| <= ZERO_TOL * r``, ``r`` the
 #: larger distance from its two centres to the face's first corner (2^-40, the core's
-#: documented accuracy): the two centres coincide to the accuracy they are known with.
-ZERO_TOL = 2.0**-40
+#: documented accuracy, as :data:`tetlap.dual.OUTSIDE_TOL`): the two centres coincide to
+#: the accuracy they are known with.
+ZERO_TOL = OUTSIDE_TOL
 
 
 def _interior_weights(g: DualGeometry, degenerate: str, V: np.ndarray):
@@ -150,15 +151,10 @@ class CellReport(analysis.Report):
         return "\n".join(lines)
 
 
-def _stored(L: sp.csr_array, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(L[rows, cols], stored)``: the values at the given positions (0 where nothing is
-    stored) and whether each is stored, for a canonical CSR ``L``."""
-    m = L.shape[0]
-    keys = np.repeat(np.arange(m, dtype=np.int64), np.diff(L.indptr)) * m + L.indices
-    want = rows.astype(np.int64) * m + cols
-    at = np.minimum(np.searchsorted(keys, want), max(len(keys) - 1, 0))
-    stored = (keys[at] == want) if len(keys) else np.zeros(len(want), dtype=bool)
-    return np.where(stored, L.data[at] if len(keys) else 0.0, 0.0), stored
+def _sample(A: sp.csr_array, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """``A[rows, cols]`` as a float64 array (0 where nothing is stored); SciPy gives a sparse
+    array for empty indices."""
+    return np.asarray(A[rows, cols], dtype=np.float64).ravel() if len(rows) else np.zeros(0)
 
 
 def _report(L, V: np.ndarray, T: np.ndarray, M, *, weights, negative_tol: float, nsd: bool):
@@ -182,8 +178,8 @@ def _report(L, V: np.ndarray, T: np.ndarray, M, *, weights, negative_tol: float,
     pairs = sp.csr_array((np.ones(2 * len(s)), (np.concatenate([s, t]), np.concatenate([t, s]))),
                          shape=(m, m))
     pairs.sum_duplicates()
-    local = bool(((rows == L.indices) | _stored(pairs, rows, L.indices)[1]).all())
-    w, _ = _stored(L, s, t)
+    local = bool(((rows == L.indices) | (_sample(pairs, rows, L.indices) > 0)).all())
+    w = _sample(L, s, t)
     notes: list[str] = []
     residual = None
     off = ~on_boundary
@@ -196,10 +192,11 @@ def _report(L, V: np.ndarray, T: np.ndarray, M, *, weights, negative_tol: float,
         residual = float(np.abs(L @ g.centres)[off].max()) / (scale * diameter)
     if not finite:
         notes.append("L has NaN or Inf entries: only finiteness and locality are decided")
-    d2 = dec.exterior_derivatives(V, T).d2
-    faces = np.flatnonzero(interior)
-    # (an empty fancy index of a SciPy array is a sparse array: no faces, nothing folded)
-    folded = int((d2[s, faces] == d2[t, faces]).sum()) if len(faces) else 0
+    # folded: the face's two tets see it with one orientation (the same sign in d2)
+    outward = _outward(T, g.orientation)
+    faces = np.flatnonzero(interior)[:, None]
+    sign = lambda k: outward[k, (g.tet_faces[k] == faces).argmax(axis=1)]
+    folded = int((sign(s) == sign(t)).sum())
     if folded:
         notes.append(f"{folded} interior faces are folded (their two tets on one side: the "
                      "mesh overlaps itself): linear precision fails at their cells")

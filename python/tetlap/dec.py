@@ -50,7 +50,7 @@ import scipy.sparse as sp
 
 from . import _arrays, _core, diagnostics
 from ._docs import shared_docs
-from .dual import _FACES, _Faces, dual_geometry
+from .dual import _Faces, _outward, dual_geometry
 from .errors import DegenerateElementError
 
 __all__ = ["exterior_derivatives", "Derivatives", "hodge_stars", "Stars"]
@@ -91,12 +91,6 @@ def _incidence(rows: np.ndarray, cols: np.ndarray, signs: np.ndarray, shape) -> 
                      shape=shape)
     A.sort_indices()
     return A
-
-
-def _parity(p: np.ndarray) -> np.ndarray:
-    """+1 / -1: the sign of each row of ``p`` (k, 4) as a permutation of its values."""
-    inversions = sum((p[:, i] > p[:, j]).astype(np.int64) for i in range(4) for j in range(i + 1, 4))
-    return 1 - 2 * (inversions % 2)
 
 
 @_arrays.takes_mesh_object
@@ -144,7 +138,7 @@ def exterior_derivatives(V, T=None) -> Derivatives:
         raise DegenerateElementError(f"tet {flat[0]} has zero volume: it has no orientation",
                                      element=int(flat[0]))
     edges = _core.edges(T, n)
-    topology = _Faces(T)
+    topology = _Faces(T, n)
     faces = topology.faces
     E, F = len(edges), len(faces)
     d0 = _incidence(np.repeat(np.arange(E), 2), edges, np.tile([-1, 1], E), (E, n))
@@ -153,14 +147,8 @@ def exterior_derivatives(V, T=None) -> Derivatives:
     d1 = _incidence(np.repeat(np.arange(F), 3),
                     np.column_stack([edge_of(1, 2), edge_of(0, 2), edge_of(0, 1)]),
                     np.tile([1, -1, 1], F), (F, E))
-    # the sorted face (a, b, c) and the opposite corner o are the tet as (a, b, c, o): its
-    # orientation is the tet's times the parity of that reordering; (a, b, c)'s normal
-    # points to o (inward) when that product is +1
-    local = np.broadcast_to(_FACES, (m, 4, 3))
-    order = np.take_along_axis(local, np.argsort(T[:, _FACES], axis=2), axis=2)
-    corners = np.concatenate([order, np.broadcast_to(np.arange(4)[None, :, None], (m, 4, 1))], axis=2)
-    signs = -orientation[:, None] * _parity(corners.reshape(-1, 4)).reshape(m, 4)
-    d2 = _incidence(np.repeat(np.arange(m), 4), topology.tet_faces, signs, (m, F))
+    d2 = _incidence(np.repeat(np.arange(m), 4), topology.tet_faces, _outward(T, orientation),
+                    (m, F))
     return Derivatives(d0, d1, d2, edges, faces)
 
 

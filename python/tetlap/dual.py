@@ -74,6 +74,9 @@ class DualGeometry:
         not a point of its cell.
     volume : (m,) float64
         The tet's volume, positive whatever its orientation.
+    orientation : (m,) int8
+        The sign of ``det[x1 - x0, x2 - x0, x3 - x0]`` (exact): +1 or -1; +1 for every tet
+        of an immersed mesh (``d > 3``: no orientation of R^d is at hand).
 
     Per face (the unique faces, boundary faces included):
 
@@ -107,6 +110,7 @@ class DualGeometry:
     barycentric: np.ndarray
     outside: np.ndarray
     volume: np.ndarray
+    orientation: np.ndarray
     faces: np.ndarray
     face_tets: np.ndarray
     tet_faces: np.ndarray
@@ -186,7 +190,7 @@ def dual_geometry(V, T=None, *, weights=None, threads=None) -> DualGeometry:
     edges = np.column_stack([rows[upper], L.indices[upper].astype(np.int64)])
     transmissibility = L.data[upper]
     edge_length = np.linalg.norm(V[edges[:, 1]] - V[edges[:, 0]], axis=1)
-    topology = _Faces(T)
+    topology = _Faces(T, n)
     topology.refuse_nonmanifold()
     first, second = topology.records[:, 0], topology.records[:, 1]
     t, corner = first // 4, first % 4
@@ -197,11 +201,12 @@ def dual_geometry(V, T=None, *, weights=None, threads=None) -> DualGeometry:
         edge_length=edge_length,
         dual_area=transmissibility * edge_length,
         transmissibility=transmissibility,
-        control_volume=_sparse.mass(M, n).diagonal(),
+        control_volume=M[1],  # ("lumped", diagonal): the circumcentric mass is diagonal
         centres=points[:, 0],
         barycentric=barycentric,
         outside=(barycentric < -OUTSIDE_TOL).any(axis=1),
         volume=np.abs(volumes),
+        orientation=np.sign(volumes).astype(np.int8),
         faces=topology.faces,
         face_tets=np.where(topology.records >= 0, topology.records // 4, -1),
         tet_faces=topology.tet_faces,
@@ -209,6 +214,25 @@ def dual_geometry(V, T=None, *, weights=None, threads=None) -> DualGeometry:
         face_centres=points[t, 1 + corner],
         dual_length=dual_length,
     )
+
+
+def _parity(p: np.ndarray) -> np.ndarray:
+    """+1 / -1: the sign of each row of ``p`` (k, 4) as a permutation of its values."""
+    inversions = sum((p[:, i] > p[:, j]).astype(np.int64) for i in range(4) for j in range(i + 1, 4))
+    return 1 - 2 * (inversions % 2)
+
+
+def _outward(T: np.ndarray, orientation: np.ndarray) -> np.ndarray:
+    """(m, 4) int64: +1 where the face opposite corner ``l`` of tet ``t``, oriented by its
+    sorted vertices ``(a, b, c)``, has its normal ``(x_b - x_a) x (x_c - x_a)`` pointing out
+    of the tet, -1 where inward (``orientation``: the tets' signs, none 0). The face and
+    the opposite corner ``o`` are the tet as ``(a, b, c, o)``, whose orientation is the
+    tet's times the parity of that reordering; the normal points to ``o`` when it is +1."""
+    m = len(T)
+    local = np.broadcast_to(_FACES, (m, 4, 3))
+    order = np.take_along_axis(local, np.argsort(T[:, _FACES], axis=2), axis=2)
+    corners = np.concatenate([order, np.broadcast_to(np.arange(4)[None, :, None], (m, 4, 1))], axis=2)
+    return -orientation.astype(np.int64)[:, None] * _parity(corners.reshape(-1, 4)).reshape(m, 4)
 
 
 class _Faces:
@@ -219,9 +243,16 @@ class _Faces:
     ``4 t + l`` (tet ``t``, corner ``l`` opposite), ascending, ``-1`` for a face of one
     tet; ``counts`` (F,) how many tets share the face."""
 
-    def __init__(self, T: np.ndarray) -> None:
-        F = np.sort(T[:, _FACES], axis=2).reshape(-1, 3)
-        order = np.lexsort((F[:, 2], F[:, 1], F[:, 0]))  # stable: records ascend per face
+    def __init__(self, T: np.ndarray, n: int) -> None:
+        # the sorted triples (smallest, middle, largest) of the 4 m records, row 4 t + l
+        x, y, z = (T[:, _FACES[:, k]].reshape(-1) for k in range(3))
+        low, high = np.minimum(np.minimum(x, y), z), np.maximum(np.maximum(x, y), z)
+        F = np.column_stack([low, x + y + z - low - high, high])
+        # a stable sort (records ascend within a face) by one integer key while n^3 fits
+        # in int64, else by two
+        head = F[:, 0] * n + F[:, 1]
+        order = (np.argsort(head * n + F[:, 2], kind="stable") if n < 2**21
+                 else np.lexsort((F[:, 2], head)))
         S = F[order]
         new = np.ones(len(S), dtype=bool)
         new[1:] = (S[1:] != S[:-1]).any(axis=1)
