@@ -104,6 +104,14 @@ def test_non_manifold_faces_have_derivatives_but_no_star2():
         dec.hodge_stars(V, T)
 
 
+def test_unused_vertices_have_zero_columns_and_no_volume():
+    V, T = tetlap.meshes.ball(100, seed=5)
+    V = np.vstack([V, [[9.0, 9, 9]]])
+    d, s = dec.exterior_derivatives(V, T), dec.hodge_stars(V, T)
+    assert d.d0.shape[1] == len(V) and abs(d.d0[:, [len(V) - 1]]).sum() == 0
+    assert s.star0.diagonal()[-1] == 0
+
+
 def test_a_flat_tet_has_no_orientation():
     V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]
     with pytest.raises(tetlap.DegenerateElementError) as e:
@@ -148,3 +156,14 @@ def test_identities_on_random_delaunay_meshes(pts):
     L = tetlap.laplacian(V, T, "dual")
     s = dec.hodge_stars(V, T)
     assert abs(L + d.d0.T @ s.star1 @ d.d0).max() <= 1e-13 * abs(L).max()
+    # the cell Laplacian: symmetric, zero row sums, linear at the centres off the boundary
+    g = tetlap.dual_geometry(V, T)
+    Lc = tetlap.cell_laplacian(V, T, degenerate="skip")
+    assert abs(Lc - Lc.T).max() == 0
+    rows = np.asarray(abs(Lc).sum(axis=1)).ravel()
+    assert (np.abs(np.asarray(Lc.sum(axis=1)).ravel()) <= 1e-13 * rows).all()
+    inner = np.setdiff1d(np.arange(len(T)), g.face_tets[g.boundary_faces, 0])
+    skipped = np.abs(g.dual_length) <= 1e-9 * np.abs(g.centres).max()
+    inner = np.setdiff1d(inner, g.face_tets[skipped].ravel())
+    residual = np.abs(Lc @ g.centres).max(axis=1)[inner]
+    assert (residual <= 1e-9 * rows[inner] * (1 + np.abs(g.centres).max())).all()
