@@ -11,7 +11,7 @@ import pytest
 
 import tetlap
 from tetlap import experiments
-from tetlap.experiments import flips
+from tetlap.experiments import finite_volumes, flips
 
 from conftest import MESH_DIR
 
@@ -142,6 +142,36 @@ def test_harmonic_built_in(tmp_path):
     assert table and all(r["proved"] == "True" and int(r["auto_outside"]) == 0 for r in table)
 
 
+@pytest.mark.slow
+def test_finite_volumes(tmp_path):
+    """Three refinements per family; every scheme's L2 error falls from the coarsest to the
+    finest mesh at a rate of at least 1 (about 2 is what the full run measures)."""
+    table = rows(run("finite-volumes", tmp_path))
+    for family in {r["family"] for r in table}:
+        for scheme in finite_volumes.SCHEMES:
+            mine = [r for r in table if r["family"] == family and r["scheme"] == scheme]
+            assert len(mine) == 3 and all(r["l2_error"] != "nan" for r in mine), (family, scheme)
+            e = [float(r["l2_error"]) for r in mine]
+            h = [float(r["h"]) for r in mine]
+            assert np.log(e[0] / e[-1]) / np.log(h[0] / h[-1]) > 1, (family, scheme, e)
+    assert "rates" in (tmp_path / "finite-volumes" / "summary.txt").read_text()
+
+
+def test_finite_volume_schemes_are_exact_where_they_should_be():
+    """The vertex dual reproduces |x|^2 (its pyramid identity: L |x|^2 = 6 M); both cell
+    schemes reproduce linear functions (the dual edges are orthogonal to the faces)."""
+    V, T = tetlap.meshes.ball(300, seed=4)
+    square = lambda x: np.sum(x * x, axis=-1)
+    six = lambda x: np.full(x.shape[:-1], 6.0)
+    worst, _, _ = finite_volumes.vertex_dual(V, T, square, six)
+    assert worst < 1e-12
+    g = tetlap.dual_geometry(V, T)
+    linear = np.array([0.3, -1.0, 2.0])
+    Lc = tetlap.cell_laplacian(V, T)
+    inner = np.setdiff1d(np.arange(len(T)), g.face_tets[g.boundary_faces, 0])
+    assert np.abs(Lc @ (g.centres @ linear))[inner].max() < 1e-12 * abs(Lc).max()
+
+
 # ---- the registry, the corpus listing, the summaries -----------------------------------
 
 
@@ -149,7 +179,7 @@ def test_the_registry_lists_each_experiment_once_with_its_runner():
     import importlib
     import inspect
 
-    assert len(set(experiments.NAMES)) == len(experiments.EXPERIMENTS) == 9
+    assert len(set(experiments.NAMES)) == len(experiments.EXPERIMENTS) == 10
     for e in experiments.EXPERIMENTS:
         run = importlib.import_module(f"tetlap.experiments.{e.module}").run
         assert ("meshes" in inspect.signature(run).parameters) == e.corpus, e.name

@@ -35,6 +35,9 @@ _EXPORTS = {
     ".regular": ("regular_weights", "RegularWeights"),
     ".mesh": ("Mesh", "UpdateInfo"),
     ".calculus": ("gradient", "divergence"),
+    ".dual": ("dual_geometry", "DualGeometry"),
+    ".cells": ("cell_laplacian",),
+    ".dec": ("dec",),
     ".heat": ("HeatDistance", "heat_distance"),
     ".fields": ("harmonic", "Harmonic"),
     ".analysis": ("check", "Report"),
@@ -72,7 +75,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, imported eagerly
-    from . import diagnostics, info, io, meshes, solve
+    from . import dec, diagnostics, info, io, meshes, solve
     from ._core import MAX_THREADS
     from .analysis import Report, check
     from .assembly import (Triplets, edge_weights, element_contributions, laplacian, mass,
@@ -83,6 +86,8 @@ if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, imported e
                          NonFiniteError, OptionError, RepeatedVertexError, ShapeError,
                          SolveError, TetlapError)
     from .calculus import divergence, gradient
+    from .cells import cell_laplacian
+    from .dual import DualGeometry, dual_geometry
     from .fields import Harmonic, harmonic
     from .heat import HeatDistance, heat_distance
     from .mesh import Mesh, UpdateInfo

@@ -17,7 +17,7 @@ __all__ = ["assemble", "check_options", "vjp", "Mesh", "MAX_THREADS", "DELAUNAY_
            "MAX_GROUP", "faces", "duplicates", "edges", "quality", "non_delaunay",
            "check_operator", "negative_semidefinite", "element_certificate",
            "regular_conditions", "regular_search", "regular_masses", "gradients",
-           "Factor"]
+           "Factor", "dual_centres"]
 
 MAX_THREADS: int
 DELAUNAY_RTOL: float
@@ -56,6 +56,13 @@ def vjp(points: _F64, cells: _Cells, laplacian: _Kind | None, mass: str | None, 
 # (g, vol): barycentric-coordinate gradients (m, 4 | 3, d) and element measures (m,).
 def gradients(points: _F64, cells: _Cells, *, options: _Options = None
               ) -> tuple[_F64, _F64]: ...
+
+# The orthogonal dual (tetlap.dual_geometry), tets only: (points (m, 5, d): per tet its
+# centre then the centres of the faces opposite corners 0..3; barycentric (m, 4) of the
+# centre; heights (m, 4): signed distances of the centre from the faces, positive on the
+# tet's side; areas (m, 4) of the faces; volumes (m,) signed).
+def dual_centres(points: _F64, cells: _Cells, *, weights: _F64 | None = None,
+                 options: _Options = None) -> tuple[_F64, _F64, _F64, _F64, _F64]: ...
 
 @final
 class Mesh:

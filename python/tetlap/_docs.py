@@ -59,6 +59,20 @@ degenerate : {"raise", "skip"}, default "raise"
 threads : int, optional
     Worker threads, from 1 to ``tetlap.MAX_THREADS`` (four per core); ``None`` uses all
     cores. The output is bitwise identical for any value.""",
+    "dual_mesh": """\
+V : (n, d) array-like of real numbers
+    Vertex positions, ``d >= 3`` (``d > 3``: an immersed mesh; centres lie in each tet's
+    own 3-space).
+T : (m, 4) array-like of integers, optional
+    Tets, any orientation; leave it out to pass one mesh object as ``V``. Triangles are
+    refused (:class:`tetlap.ShapeError`).
+weights : (n,) array-like of real numbers, optional
+    Vertex weights in squared-length units, as ``weights=`` of :func:`tetlap.laplacian`:
+    power centres (equal power ``|c - x_i|^2 - w_i`` to the corners) instead of
+    circumcentres, the orthogonal dual of a regular triangulation (e.g.
+    ``tetlap.regular_weights(V, T).weights``).
+threads : int, optional
+    Worker threads (``None``: all cores); the output is bitwise identical for any.""",
     "raises": """\
 Raises
 ------

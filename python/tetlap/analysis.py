@@ -128,7 +128,7 @@ def _fmt(value, template: str) -> str:
 
 @_arrays.takes_mesh_object
 def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL,
-          nsd: bool = True) -> Report:
+          nsd: bool = True, weights=None) -> Report:
     """Check a Laplacian ``L`` (and mass ``M``) of the mesh ``(V, T)`` against Table 1.
 
     Parameters
@@ -141,14 +141,23 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
         Tets, any orientation; leave it out to pass a mesh object as ``V``.
     M : (n, n) SciPy sparse array or matrix, optional
         A mass matrix (lumped or consistent): positivity and total volume are checked.
-    kind : {"primal", "dual"} or float, optional
+    kind : {"primal", "dual", "cell"} or float, optional
         What ``L`` is meant to be, if known; it only helps the semidefiniteness check
         (see Notes). Without it, ``L`` is compared with the primal of the mesh.
+        ``"cell"``: ``L`` is an (m, m) cell-centred operator on the tets, such as
+        :func:`tetlap.cell_laplacian`; the report (a
+        :class:`tetlap.cells.CellReport`) reads every row on the dual graph: locality
+        within face-adjacent tets, linear precision for linear functions sampled at the
+        centres on tets without a boundary face, weights over interior faces; ``M`` is
+        then (m, m), e.g. ``diag(volume)``.
     negative_tol : float, default 1e-12
         A weight is negative when ``w < -negative_tol * max|w|`` (a relative tolerance in
         [0, 1)).
     nsd : bool, default True
         False skips the semidefiniteness check.
+    weights : (n,) array-like of real numbers, optional
+        With ``kind="cell"``: the vertex weights ``L`` was built with (its centres are
+        then power centres). Not used by the other kinds.
 
     Returns
     -------
@@ -196,10 +205,17 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
-    if kind is not None and not (kind in ("primal", "dual") or (
+    if kind is not None and not (kind in ("primal", "dual", "cell") or (
             isinstance(kind, numbers.Real) and not isinstance(kind, bool) and 0 <= kind <= 1)):
-        raise OptionError(f'kind must be None, "primal", "dual" or a float t in [0, 1], got {kind!r}')
+        raise OptionError(f'kind must be None, "primal", "dual", "cell" or a float t in [0, 1], '
+                          f'got {kind!r}')
     _options.tolerance(negative_tol, "negative_tol")
+    if kind == "cell":
+        from . import cells
+
+        return cells._report(L, V, T, M, weights=weights, negative_tol=negative_tol, nsd=nsd)
+    if weights is not None:
+        raise OptionError('weights= applies to kind="cell" only')
     return _check(L, V, T, M, kind=kind, negative_tol=negative_tol, nsd=nsd)
 
 
@@ -392,6 +408,8 @@ def _element_certificate(S, V, T, scale: float, tol: np.ndarray, kind, assembled
     exceeds its vertex's tolerance or a group could not be certified. ``assembled``: ``L``
     is that operator (gaps zero)."""
     n = V.shape[0]
+    if kind == "cell":  # a cell operator is no sum of per-tet matrices on the vertices
+        return None
     for candidate in ("primal", "dual") if kind is None else (kind,):
         gaps = (np.zeros(n) if assembled
                 else _row_gaps(S, assembly.laplacian(V, T, candidate, degenerate="skip")))

@@ -5,7 +5,8 @@ Reading: :func:`read` takes a file in any format meshio reads (``.msh``, ``.mesh
 ``meshio.Mesh``, a ``pyvista.UnstructuredGrid`` (or any pyvista dataset) or any object with
 ``points`` and cells. Both return ``(V, T)``: the linear tets if there are any, else the
 triangles. Writing: :func:`write` (a file), :func:`to_meshio`, :func:`to_pyvista` and
-:func:`edges_to_pyvista` (e.g. the negative-weight edges) for plotting.
+:func:`edges_to_pyvista` (e.g. the negative-weight edges) for plotting; :func:`dual_cells`
+(the Voronoi / power cells as VTK polyhedra).
 
 Needs the optional dependencies ``meshio`` (``pip install 'tetlap[io]'``) for files and
 ``pyvista`` (``pip install 'tetlap[pyvista]'``) for :func:`to_pyvista`.
@@ -34,7 +35,8 @@ from . import _arrays
 from ._meshobj import is_mesh_object, to_arrays
 from .errors import MeshFileError, ShapeError
 
-__all__ = ["read", "from_mesh", "write", "to_meshio", "to_pyvista", "edges_to_pyvista"]
+__all__ = ["read", "from_mesh", "write", "to_meshio", "to_pyvista", "edges_to_pyvista",
+           "dual_cells"]
 
 
 def _optional(module: str, extra: str, what: str):
@@ -389,3 +391,71 @@ def edges_to_pyvista(V, edges, values=None, name="value"):
             raise ShapeError(f"values has shape {a.shape}, but there are {len(E)} edges")
         poly.cell_data[name] = a
     return poly
+
+
+def dual_cells(V, T=None, *, weights=None, threads=None):
+    """The dual cells (Voronoi cells, or power cells with vertex weights) of a tet mesh as
+    VTK polyhedra in a ``meshio.Mesh``: ``tetlap.io.dual_cells(V, T).write("cells.vtu")``.
+
+    Parameters
+    ----------
+    V : (n, 3) array-like of real numbers
+        Vertex positions in R^3.
+    T : (m, 4) array-like of integers, optional
+        Tets, any orientation; leave it out to pass a mesh object as ``V``.
+    weights : (n,) array-like of real numbers, optional
+        Vertex weights: power cells (see :func:`tetlap.dual_geometry`).
+    threads : int, optional
+        Worker threads of the core.
+
+    Returns
+    -------
+    meshio.Mesh
+        Points: the vertices, then one point per edge (its midpoint, the power point with
+        weights), per face and per tet (their centres, as :func:`tetlap.dual_geometry`
+        gives them). One ``"polyhedron"`` cell per vertex used by a tet, in blocks by
+        number of points (meshio's layout), each a closed surface of triangles oriented
+        outward where the cell is positively oriented: per tet around the vertex ``a`` and
+        per face ``abc`` of it, ``(c_ab, c_abc, c_abcd)``, and per boundary face ``abc``
+        at ``a`` also ``(a, c_ab, c_abc)`` and ``(a, c_ac, c_abc)`` (centres ``c``). Cell
+        data ``"vertex"`` (the vertex of each cell: blocks do not keep the vertex order)
+        and ``"control_volume"`` (the circumcentric mass). The divergence theorem over
+        each surface gives the signed control volume exactly (to rounding): a cell whose
+        pieces are negative (centres outside their tets) turns partly inside out, so it
+        is a correct chain but not always a valid solid for a viewer.
+
+    Raises
+    ------
+    ShapeError
+        ``V`` not in R^3 (VTK points are 3-D).
+    tetlap.TetlapError
+        As :func:`tetlap.dual_geometry` raises it.
+
+    Examples
+    --------
+    >>> import tetlap, tetlap.io
+    >>> V, T = tetlap.meshes.ball(200, seed=1)
+    >>> cells = tetlap.io.dual_cells(V, T)
+    >>> sum(len(block) for block in cells.cells) == len(V)
+    True
+    >>> cells.write("cells.vtu")  # doctest: +SKIP
+    """
+    from ._dual_cells import surfaces
+
+    meshio = _meshio()
+    V, T = _arrays.mesh(V, T)
+    V = _arrays.points(V)
+    T = _arrays.elements(T, 4)
+    if V.shape[1] != 3:
+        raise ShapeError(f"dual cells are VTK polyhedra in R^3, V has shape {V.shape}")
+    points, triangles, owner, volume = surfaces(V, T, weights, threads)
+    vertices, start = np.unique(owner, return_index=True)
+    groups = np.split(triangles, start[1:])
+    size = np.array([len(np.unique(g)) for g in groups])
+    blocks, vertex, control = [], [], []
+    for k in np.unique(size):  # meshio reads polyhedra back in blocks of ascending size
+        members = np.flatnonzero(size == k)
+        blocks.append((f"polyhedron{k}", [list(groups[i]) for i in members]))
+        vertex.append(vertices[members])
+        control.append(volume[vertices[members]])
+    return meshio.Mesh(points, blocks, cell_data={"vertex": vertex, "control_volume": control})

@@ -56,6 +56,9 @@ EXPERIMENTS = (
     Experiment("harmonic", "harmonic",
                "the maximum principle of harmonic fields over a mesh corpus, against libigl",
                corpus=True),
+    Experiment("finite-volumes", "finite_volumes",
+               "Poisson on the ball: cell-centred and vertex-centred duals against the exact "
+               "solution (issue 31)"),
 )
 NAMES = tuple(e.name for e in EXPERIMENTS)
 CORPUS_NAMES = tuple(e.name for e in EXPERIMENTS if e.corpus)

@@ -9,6 +9,7 @@
 mod analysis;
 mod convert;
 mod derivatives;
+mod dual;
 mod errors;
 mod gradient;
 mod mesh;
@@ -34,6 +35,8 @@ mod _core {
     };
     #[pymodule_export]
     use crate::derivatives::vjp;
+    #[pymodule_export]
+    use crate::dual::dual_centres;
     #[pymodule_export]
     use crate::gradient::gradients;
     #[pymodule_export]

@@ -6,9 +6,12 @@
 //! * `scatter`: per-element values summed onto rows and vertices in a fixed order;
 //! * `one_shot`: the public one-shot API; `cached`: [`CachedMesh`], local updates;
 //! * `gradient`: the P1 gradients of every element ([`gradients`]);
+//! * `centres`: the dual's centres of every tet and face, and its dual edges
+//!   ([`dual_centres`]);
 //! * `vjp`: derivatives of the operators with respect to the mesh.
 
 pub(crate) mod cached;
+pub(crate) mod centres;
 pub(crate) mod gradient;
 pub(crate) mod one_shot;
 pub(crate) mod order;
@@ -18,6 +21,7 @@ pub(crate) mod scatter;
 pub mod vjp;
 
 pub use cached::{CachedMesh, Update};
+pub use centres::{dual_centres, DualCentres, TetDual};
 pub use gradient::gradients;
 pub use one_shot::{contributions, edge_weights, laplacian, mass, operators, triplets};
 pub(crate) use pass::CHUNK;

@@ -7,6 +7,7 @@
 
 pub mod batch;
 mod careful;
+mod centre;
 pub mod derivatives;
 pub(crate) mod dual;
 mod mass;
@@ -14,6 +15,7 @@ pub(crate) mod power;
 mod primal;
 mod quality;
 
+pub use centre::{power_centres, power_centres_precise, Centres};
 pub use dual::{dual, Dual};
 pub use mass::barycentric_mass;
 pub use power::{power_dual, power_dual_precise, Field, Placement, Real};

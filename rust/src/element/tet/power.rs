@@ -127,24 +127,34 @@ pub enum Placement {
 }
 
 /// The dual vertices of one tet in barycentric coordinates.
-struct Vertices<R> {
+pub(super) struct Vertices<R> {
     /// For edge `e = (a, b)`: the coordinate of its point at `b` (its distance from `a` over
     /// `|ab|`).
-    edge: [R; 6],
+    pub edge: [R; 6],
     /// For the face opposite `l`: its point's coordinates at the four corners (0 at `l`).
-    face: [[R; 4]; 4],
+    pub face: [[R; 4]; 4],
     /// The tet's point: its coordinates times `|det|` (`mu`; finite however far it lies).
-    tet: [R; 4],
+    pub tet: [R; 4],
+    /// The tet's power centre minus corner 0, in frame coordinates (before any placement).
+    pub centre: V3<R>,
+}
+
+/// The face normals of a tet with corners `x` (`x[0] = 0`): `n[l]` is the cross product of
+/// two edges of the face opposite corner `l`, `n[l] / det` the gradient of `lambda_l`, and
+/// `|n[l]|` twice the face's area.
+#[inline(always)]
+pub(super) fn normals<R: Field>(x: [V3<R>; 4]) -> [V3<R>; 4] {
+    [cross(sub(x[3], x[1]), sub(x[2], x[1])), cross(x[2], x[3]), cross(x[3], x[1]), cross(x[1], x[2])]
 }
 
 /// The dual vertices of a tet with corners `x` (`x[0] = 0`, scaled frame), determinant
 /// `det`, vertex weights `w` relative to corner 0 (frame units), at the power centres; with
 /// the squared edge lengths and `|det|`.
 #[inline(always)]
-fn centres<R: Field>(x: [V3<R>; 4], det: R, w: [R; 4]) -> (Vertices<R>, [R; 6], R) {
+pub(super) fn centres<R: Field>(x: [V3<R>; 4], det: R, w: [R; 4]) -> (Vertices<R>, [R; 6], R) {
     let zero = R::from(0.0);
     let abs_det = det.oriented(det);
-    let n = [cross(sub(x[3], x[1]), sub(x[2], x[1])), cross(x[2], x[3]), cross(x[3], x[1]), cross(x[1], x[2])];
+    let n = normals(x);
     let len2 = EDGES.map(|(a, b)| {
         let d = sub(x[b], x[a]);
         dot(d, d)
@@ -160,6 +170,7 @@ fn centres<R: Field>(x: [V3<R>; 4], det: R, w: [R; 4]) -> (Vertices<R>, [R; 6], 
         }),
         face: [[zero; 4]; 4],
         tet: std::array::from_fn(|l| dot(n[l], sub(c, x[FACES[l][0]])).oriented(det)),
+        centre: c,
     };
     // the face centres, from the edge and the corner opposite it in each face
     for (e, (&(a, b), &(k, l))) in EDGES.iter().zip(OPPOSITE.iter()).enumerate() {
@@ -284,21 +295,25 @@ pub fn power_dual(t: &LocalTet, weights: Option<&[f64; 4]>, placement: Placement
 /// rounded to `f64` at the end. The precise path of the accuracy rule.
 pub fn power_dual_precise(x: [&[f64]; 4], t: &LocalTet, weights: Option<&[f64; 4]>, placement: Placement) -> Dual {
     let (corners, det) = precise_tet(x, t.scale);
-    let inv2 = 1.0 / (t.scale * t.scale);
-    let w = weights.map_or([Dd::default(); 4], |w| {
-        w.map(|wi| {
-            let (hi, lo) = two_sum(wi, -w[0]);
-            Dd { hi: hi * inv2, lo: lo * inv2 }
-        })
-    });
-    let (w, m) = dual_of(corners, det, w, placement);
+    let (w, m) = dual_of(corners, det, relative_precise(t.scale, weights), placement);
     scaled(t.scale, w.map(|v| v.to_f64()), m.map(|v| v.to_f64()))
 }
 
 /// The corner weights relative to corner 0, in the frame's units (squared lengths).
-fn relative(scale: f64, weights: Option<&[f64; 4]>) -> [f64; 4] {
+pub(super) fn relative(scale: f64, weights: Option<&[f64; 4]>) -> [f64; 4] {
     let s2 = scale * scale;
     weights.map_or([0.0; 4], |w| w.map(|wi| (wi - w[0]) / s2))
+}
+
+/// [`relative`] in double-double: the differences exact, then scaled.
+pub(super) fn relative_precise(scale: f64, weights: Option<&[f64; 4]>) -> [Dd; 4] {
+    let inv2 = 1.0 / (scale * scale);
+    weights.map_or([Dd::default(); 4], |w| {
+        w.map(|wi| {
+            let (hi, lo) = two_sum(wi, -w[0]);
+            Dd { hi: hi * inv2, lo: lo * inv2 }
+        })
+    })
 }
 
 /// Frame values back in the caller's units (step by step: `s^3` alone could overflow).
