@@ -306,6 +306,25 @@ def test_metis_in_a_child_process_gives_the_same_order(monkeypatch, tmp_path):
     assert out.stdout.split("\n")[:2] == ["run", "nested dissection (METIS)"]
 
 
+def test_metis_gets_a_symmetric_graph_from_any_pattern():
+    """METIS hangs, crashes or raises on a graph that is not symmetric (the fuzz test met a
+    segfault through dirichlet on a matrix with an explicit zero on one side): the graph
+    of any pattern is symmetrized first. Run in a child, so that a hang is a failure."""
+    import subprocess
+    import sys
+
+    code = ("import numpy as np, scipy.sparse as sp\n"
+            "from tetlap.solve.factor import nested_dissection\n"
+            "for seed in range(40):\n"
+            "    A = sp.random_array((27, 27), density=0.15, rng=seed, format='csr')\n"
+            "    p = nested_dissection(A + sp.eye_array(27))\n"
+            "    assert np.array_equal(np.sort(p), np.arange(27)), seed\n"
+            "print('ok')\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0 and out.stdout == "ok\n", out.stderr[-2000:]
+
+
 @pytest.mark.parametrize("solver", ["auto", "cholesky", "lu"])
 def test_a_singular_matrix_is_refused_not_solved(solver):
     # issue 30 item 4: factorize(-L) of a pure Neumann Laplacian (singular: constants in

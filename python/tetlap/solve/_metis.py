@@ -15,10 +15,15 @@ import numpy as np
 
 
 def order(xadj: np.ndarray, adjncy: np.ndarray) -> np.ndarray:
-    """The nested-dissection order (int64) of the graph ``(xadj, adjncy)`` (int32 CSR)."""
+    """The nested-dissection order (int64) of the graph ``(xadj, adjncy)`` (int32 CSR of a
+    symmetric pattern without self-loops: METIS hangs or crashes on any other), or None
+    when METIS fails."""
     import pymetis
 
-    perm, _ = pymetis.nested_dissection(adjacency=pymetis.CSRAdjacency(xadj, adjncy))
+    try:
+        perm, _ = pymetis.nested_dissection(adjacency=pymetis.CSRAdjacency(xadj, adjncy))
+    except RuntimeError:  # pybind11's "unknown exception" from METIS
+        return None
     return np.asarray(perm, dtype=np.int64)
 
 
@@ -47,4 +52,7 @@ def order_in_child(xadj: np.ndarray, adjncy: np.ndarray) -> np.ndarray | None:
 
 if __name__ == "__main__":
     data = np.load(sys.argv[1])
-    np.save(sys.argv[2], order(data["xadj"], data["adjncy"]))
+    perm = order(data["xadj"], data["adjncy"])
+    if perm is None:
+        sys.exit(1)
+    np.save(sys.argv[2], perm)

@@ -64,8 +64,10 @@ def nested_dissection(A: sp.csr_array) -> np.ndarray | None:
     from . import _metis
 
     G = sp.csr_array((np.ones(A.nnz), A.indices.copy(), A.indptr.copy()), shape=A.shape)
+    G = sp.csr_array(G + G.T)  # METIS reads a symmetric graph only (else: hangs, crashes)
     G.setdiag(0)
     G.eliminate_zeros()
+    G.sort_indices()
     if G.nnz == 0:
         return np.arange(A.shape[0], dtype=np.int64)
     xadj, adjncy = G.indptr.astype(np.int32), G.indices.astype(np.int32)
@@ -126,7 +128,8 @@ class Factor:
                 with self.info.phase("ordering"):
                     self._order = nested_dissection(A)
                 if self._order is None and ordering == "nd":
-                    raise OptionError('ordering="nd" needs pymetis (pip install pymetis)')
+                    raise OptionError('ordering="nd": METIS failed, or pymetis is not '
+                                      'installed (pip install pymetis)')
             self.info.ordering = "amd" if self._order is None else "nested dissection (METIS)"
         stages("factorization")
         with self.info.phase("factorization"):
