@@ -46,6 +46,10 @@ pub enum Error {
     AffineParameter { t: f64 },
     /// [`crate::Options::threads`] is 0 or above [`crate::max_threads`].
     Threads { threads: usize, max: usize },
+    /// [`crate::Options::threads`] is `None` and the environment variable
+    /// `RAYON_NUM_THREADS` holds `value`, which is not `0` (all cores) or a count in
+    /// `1..=max` ([`crate::default_threads`]).
+    ThreadsVariable { value: String, max: usize },
     /// The operating system refused to start worker threads.
     ThreadPool { reason: String },
     /// An option that this kind of element does not support.
@@ -138,6 +142,11 @@ impl fmt::Display for Error {
             Error::Threads { threads, max } => {
                 write!(f, "Options::threads must lie in 1..={max}, got {threads}")
             }
+            Error::ThreadsVariable { value, max } => write!(
+                f,
+                "RAYON_NUM_THREADS={value:?} is not a thread count: it must be 0 (all cores) or lie in \
+                 1..={max}, as Options::threads must"
+            ),
             Error::ThreadPool { reason } => write!(f, "could not start worker threads: {reason}"),
             Error::Unsupported { option, element } => {
                 let option = match option {
