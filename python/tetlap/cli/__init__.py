@@ -77,7 +77,8 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command; 2 with one line ``tetlap: error: ...`` on stderr for bad input
-    (a bad flag value among them, found before any work), 130 on Ctrl-C."""
+    (a bad flag value among them, found before any work) or for running out of memory,
+    130 on Ctrl-C."""
     args = parser().parse_args(argv)
     command = next(c for c in COMMANDS if c.NAME == args.command)
     try:
@@ -88,4 +89,7 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except (TetlapError, OSError, ImportError, ValueError) as e:
         print(_output.error_line(e), file=sys.stderr)
+        return 2
+    except MemoryError as e:
+        print(_output.error_line(MemoryError(f"out of memory: {e}")), file=sys.stderr)
         return 2
