@@ -79,7 +79,7 @@ def dual_statistics(V, T) -> dict:
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
     edges, w = assembly.edge_weights(V, T, "dual", degenerate="skip")
-    on_boundary = diagnostics.boundary_vertices(T, len(V))
+    on_boundary = diagnostics.boundary_vertices(V, T)
     inner = ~(on_boundary[edges[:, 0]] & on_boundary[edges[:, 1]])
     L = assembly.laplacian(V, T, "dual", degenerate="skip")
     vol = np.abs(diagnostics.signed_volumes(V, T))

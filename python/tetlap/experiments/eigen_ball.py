@@ -54,7 +54,7 @@ def run(out) -> None:
             V, T = meshes.weighted_ball(size, 1.0, seed=seed)
         else:
             V, T = meshes.ball(size, seed=seed)
-        fixed = diagnostics.boundary_vertices(T, len(V))
+        fixed = diagnostics.boundary_vertices(V, T)
         for lap, mass in PAIRS:
             L, M = assembly.operators(V, T, lap, mass)
             row = {"family": family, "size": size, "n_vertices": len(V), "laplacian": lap,

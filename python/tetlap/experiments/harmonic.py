@@ -45,7 +45,7 @@ def run(out, meshes=None) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             V, T = meshes_module.compact(*load())
-        b = np.flatnonzero(diagnostics.boundary_vertices(T, len(V)))
+        b = np.flatnonzero(diagnostics.boundary_vertices(V, T))
         values = (V[b, 0] > np.median(V[b, 0])).astype(float)
         row = {"mesh": name, "n_vertices": len(V), "n_tets": len(T), "n_fixed": len(b)}
         try:

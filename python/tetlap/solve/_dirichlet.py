@@ -63,7 +63,7 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
     >>> import numpy as np, tetlap
     >>> V, T = tetlap.meshes.cube(4, jitter=0.2)
     >>> L = tetlap.laplacian(V, T, "dual")
-    >>> fixed = tetlap.diagnostics.boundary_vertices(T, len(V))
+    >>> fixed = tetlap.diagnostics.boundary_vertices(V, T)
     >>> f, info = tetlap.solve.dirichlet(L, fixed, V[:, 0], solver="cholesky", return_info=True)
     >>> bool(np.allclose(f, V[:, 0])), info.solver, info.residual < 1e-12
     (True, 'cholesky', True)
