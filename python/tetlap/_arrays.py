@@ -111,7 +111,10 @@ def elements(T, n_columns=(3, 4)) -> np.ndarray:
         )
     if arr.ndim != 2 or arr.shape[1] not in n_columns:
         shapes = " or ".join(f"(m, {k})" for k in n_columns)
-        raise ShapeError(f"T must have shape {shapes}, got {arr.shape}")
+        why = (": triangles, and this function needs tets (laplacian, mass, operators, the "
+               "other assembly functions, Mesh and gradient take triangles too)"
+               if n_columns == (4,) and arr.ndim == 2 and arr.shape[1] == 3 else "")
+        raise ShapeError(f"T must have shape {shapes}, got {arr.shape}{why}")
     if arr.dtype == np.uint64 and arr.max() > _I64_MAX:
         flat = int(np.argmax(arr.ravel() > _I64_MAX))
         bad = int(arr.ravel()[flat])
@@ -217,10 +220,17 @@ def vector(x, n: int, name: str) -> np.ndarray:
     return arr
 
 
+def not_a_vertex(what: str, index: int, n: int) -> IndexRangeError:
+    """The error for ``index`` outside ``0..n-1`` (``what``: "sources holds"), the range
+    said as people read it ("0..64" read as 65 indices for 64 vertices)."""
+    known = f"there are {n} vertices, 0 to {n - 1}" if n else "there are no vertices"
+    return IndexRangeError(f"{what} {index}, not a vertex: {known}", index=int(index))
+
+
 def vertex_index(v, n: int, name: str) -> int:
-    """``v`` (an option naming a vertex) as a vertex index in ``0..n``."""
+    """``v`` (an option naming a vertex) as a vertex index in ``0..n-1``."""
     if not isinstance(v, numbers.Integral) or isinstance(v, bool):
         raise OptionError(f"{name} must be an integer vertex index, got {v!r}")
     if not 0 <= v < n:
-        raise IndexRangeError(f"{name} = {v} is not a vertex index in 0..{n}", index=int(v))
+        raise not_a_vertex(f"{name} =", v, n)
     return int(v)

@@ -35,8 +35,7 @@ from scipy.sparse import csgraph
 
 from . import _arrays, _core, _options, analysis, assembly
 from .solve import factorize
-from .errors import (DtypeError, IndexRangeError, NonFiniteError, OptionError, ShapeError,
-                     SolveError)
+from .errors import DtypeError, NonFiniteError, OptionError, ShapeError, SolveError
 
 __all__ = ["harmonic", "Harmonic", "RANGE_RTOL", "maximum_principle"]
 
@@ -79,7 +78,7 @@ def _fixed(fixed, values, n: int) -> tuple[np.ndarray, np.ndarray]:
     elif f.dtype.kind in "iu" and f.ndim == 1:
         if f.size and (f.min() < 0 or f.max() >= n):
             bad = int(f[(f < 0) | (f >= n)][0])
-            raise IndexRangeError(f"fixed holds {bad}, not a vertex in 0..{n}", index=bad)
+            raise _arrays.not_a_vertex("fixed holds", bad, n)
         idx = f.astype(np.int64)
         if len(np.unique(idx)) != len(idx):
             raise OptionError("fixed holds a vertex twice")

@@ -100,8 +100,8 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             py,
             &c.degenerate,
             format!(
-                "element {element} is degenerate (zero volume); pass degenerate=\"skip\" to give \
-                 such elements zero contribution"
+                "element {element} is degenerate (zero volume for a tet, zero area for a \
+                 triangle); pass degenerate=\"skip\" to give such elements zero contribution"
             ),
             &[("element", i(element))],
         ),
@@ -109,9 +109,9 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             py,
             &c.degenerate,
             format!(
-                "element {element}: its values leave the float64 range (a volume beyond it, or \
-                 so flat a tet that its dual weights overflow); pass degenerate=\"skip\" to \
-                 drop it"
+                "element {element}: its values leave the float64 range (a volume or area beyond \
+                 it, or so flat an element that its dual weights overflow); pass \
+                 degenerate=\"skip\" to drop it"
             ),
             &[("element", i(element))],
         ),
