@@ -77,8 +77,9 @@ def threads(value, name: str = "threads"):
 
     try:
         _core.check_options({"threads": value})
-    except OptionError as e:
-        raise OptionError(str(e) if name == "threads" else f"{name}: {e}") from None
+    except OptionError as e:  # None: the environment's count, named by the message
+        raise OptionError(str(e) if name == "threads" or value is None
+                          else f"{name}: {e}") from None
     return value
 
 

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from .. import _options
-from . import _output, _paths
+from . import _output, _paths, _threads
 
 NAME = "bench"
 HELP = "timings against the floor and the baselines"
@@ -20,8 +20,7 @@ def arguments(p) -> None:
     p.add_argument("--sizes", nargs="+", choices=list(SIZES),
                    help="sizes in tets (default: 100k 1M; --quick: 10k 100k)")
     p.add_argument("--mesh", nargs="+", metavar="FILE", help="also time these mesh files")
-    p.add_argument("--threads", type=int, default=None,
-                   help="worker threads (default: all cores)")
+    _threads.argument(p)
     p.add_argument("--repeat", type=int, default=None,
                    help="repetitions, the median is reported, 1 to 10000 (default: 5; "
                         "--quick: 3)")
