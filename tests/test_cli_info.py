@@ -213,7 +213,7 @@ def test_plot_without_matplotlib_fails_before_any_analysis(monkeypatch, tmp_path
     assert cli.main(["info", "--plot", str(tmp_path / "plots")]) == 2
     out, err = capsys.readouterr()
     assert out == "" and err == ("tetlap: error: info plots need matplotlib: "
-                                 "pip install 'tetlap[experiments]'\n")
+                                 'pip install ".[experiments]"\n')
 
 
 def test_plots_are_named_after_the_mesh(tmp_path, monkeypatch, capsys):

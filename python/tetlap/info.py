@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _arrays, _options, assembly, diagnostics
+from . import _arrays, _extras, _options, assembly, diagnostics
 from ._float_range import check_float_range
 from ._progress import Stages
 from .errors import ShapeError, TetlapError
@@ -234,7 +234,7 @@ def pyplot():
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        raise ImportError("info plots need matplotlib: pip install 'tetlap[experiments]'") from None
+        raise ImportError(f"info plots need matplotlib: {_extras.hint('experiments')}") from None
     return plt
 
 
@@ -276,7 +276,7 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     ``name``, from a file name that is not UTF-8, escaped). Weights and masses are binned
     on symmetric log scales (:func:`spread_bins`), so that slivers' huge values do not
     collapse the rest into one bar. Needs matplotlib (``pip install
-    'tetlap[experiments]'``), checked first.
+    ".[experiments]"``), checked first.
 
     Example
     -------

@@ -8,8 +8,8 @@ triangles. Writing: :func:`write` (a file), :func:`to_meshio`, :func:`to_pyvista
 :func:`edges_to_pyvista` (e.g. the negative-weight edges) for plotting; :func:`dual_cells`
 (the Voronoi / power cells as VTK polyhedra).
 
-Needs the optional dependencies ``meshio`` (``pip install 'tetlap[io]'``) for files and
-``pyvista`` (``pip install 'tetlap[pyvista]'``) for :func:`to_pyvista`.
+Needs the optional dependencies ``meshio`` (``pip install ".[io]"``) for files and
+``pyvista`` (``pip install ".[pyvista]"``) for :func:`to_pyvista`.
 
 Examples
 --------
@@ -33,7 +33,7 @@ import sys
 
 import numpy as np
 
-from . import _arrays
+from . import _arrays, _extras
 from ._meshobj import is_mesh_object, to_arrays
 from .errors import MeshFileError, ShapeError
 
@@ -46,7 +46,7 @@ def _optional(module: str, extra: str, what: str):
     try:
         return importlib.import_module(module)
     except ImportError:  # pragma: no cover - exercised only without the extra
-        raise ImportError(f"{what} need {module}: pip install 'tetlap[{extra}]'") from None
+        raise ImportError(f"{what} need {module}: {_extras.hint(extra)}") from None
 
 
 def _meshio():

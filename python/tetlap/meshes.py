@@ -12,6 +12,7 @@ import itertools
 
 import numpy as np
 
+from . import _extras
 from .diagnostics import signed_volumes
 
 __all__ = ["compact", "cube", "ball", "shell", "sphere3", "optimized_ball", "optimized_shell", "weighted_ball", "regular_triangulation", "single_tet", "orient"]
@@ -242,7 +243,7 @@ def _gmsh():
         import gmsh
     except ImportError:
         raise ImportError(
-            "optimized (quality) Delaunay meshes need gmsh: pip install 'tetlap[meshing]'"
+            f"optimized (quality) Delaunay meshes need gmsh: {_extras.hint('meshing')}"
         ) from None
     return gmsh
 
@@ -277,7 +278,7 @@ def _gmsh_mesh(build, h: float, seed: int):
 
 def optimized_ball(h: float = 0.1, *, seed: int = 0):
     """A quality Delaunay mesh of the unit ball from gmsh (OCC sphere, HXT), mesh size
-    ``h``; needs the optional ``gmsh`` (``pip install 'tetlap[meshing]'``)."""
+    ``h``; needs the optional ``gmsh`` (``pip install ".[meshing]"``)."""
     return _gmsh_mesh(lambda g: g.model.occ.addSphere(0, 0, 0, 1), h, seed)
 
 
