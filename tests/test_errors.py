@@ -177,3 +177,31 @@ def test_dirichlet_values_near_the_float64_limit_are_solved_not_called_singular(
     np.testing.assert_array_equal(f, f1 * 2**1000)  # scaled exactly by a power of two
     with pytest.raises(tetlap.NonFiniteError, match="float64 range"):
         solve.dirichlet(L, fixed, 1e308, rhs=np.full(len(V), -1e308), solver=solver)
+
+
+def test_fixed_is_a_mask_or_indices_everywhere_and_empty_means_none():
+    """``fixed=[]`` is a float array to NumPy: it was a DtypeError (solve) or a ShapeError
+    (improve, which read indices as a mask)."""
+    V, T = tetlap.meshes.cube(3, jitter=0.2, seed=1)
+    n = len(V)
+    L, M = tetlap.operators(V, T)
+    lam, _ = solve.eigs(L, M, 3, fixed=[])
+    np.testing.assert_array_equal(lam, solve.eigs(L, M, 3)[0])
+    with pytest.raises(tetlap.SolveError, match="no fixed vertex"):
+        solve.dirichlet(L, [], 0.0)           # the real problem, not the dtype of []
+    plain = tetlap.improve.improve(V, T, max_iterations=3)
+    same = tetlap.improve.improve(V, T, fixed=[], max_iterations=3)
+    np.testing.assert_array_equal(plain.V, same.V)
+    inner = np.flatnonzero(tetlap.diagnostics.interior_vertices(V, T))[:2]
+    by_index = tetlap.improve.improve(V, T, fixed=inner, max_iterations=3)
+    mask = np.zeros(n, dtype=bool)
+    mask[inner] = True
+    np.testing.assert_array_equal(by_index.V, tetlap.improve.improve(V, T, fixed=mask,
+                                                                     max_iterations=3).V)
+    np.testing.assert_array_equal(by_index.V[inner], V[inner])
+    for bad, error in (([0.5], tetlap.DtypeError), ([n], tetlap.IndexRangeError),
+                       (np.ones(3, bool), tetlap.ShapeError)):
+        for call in (lambda: tetlap.improve.improve(V, T, fixed=bad),
+                     lambda: solve.dirichlet(L, bad, 0.0)):
+            with pytest.raises(error, match="fixed"):
+                call()

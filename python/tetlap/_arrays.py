@@ -227,6 +227,28 @@ def not_a_vertex(what: str, index: int, n: int) -> IndexRangeError:
     return IndexRangeError(f"{what} {index}, not a vertex: {known}", index=int(index))
 
 
+def vertex_mask(given, n: int, name: str) -> np.ndarray:
+    """``given``, a boolean mask ``(n,)`` or integer vertex indices (``[]``: none), as a new
+    ``(n,)`` bool mask."""
+    arr = _as_array(given, name)
+    if arr.dtype == bool:
+        if arr.shape != (n,):
+            raise ShapeError(f"a boolean `{name}` must have shape ({n},), got {arr.shape}")
+        return arr.copy()
+    out = np.zeros(n, dtype=bool)
+    if arr.size == 0:        # [] is a float array to NumPy: no vertex, not a DtypeError
+        return out
+    if arr.dtype.kind not in "iu":
+        raise DtypeError(f"`{name}` must be a boolean mask or integer vertex indices, got "
+                         f"dtype {arr.dtype}")
+    flat = arr.ravel()
+    bad = (flat < 0) | (flat >= n)
+    if bad.any():
+        raise not_a_vertex(f"`{name}` holds", int(flat[np.argmax(bad)]), n)
+    out[flat] = True
+    return out
+
+
 def vertex_index(v, n: int, name: str) -> int:
     """``v`` (an option naming a vertex) as a vertex index in ``0..n-1``."""
     if not isinstance(v, numbers.Integral) or isinstance(v, bool):

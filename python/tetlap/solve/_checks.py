@@ -33,21 +33,7 @@ def rtol(value, name: str = "rtol") -> float:
 
 
 def mask(fixed, n: int) -> np.ndarray:
-    fixed = _arrays._as_array(fixed, "fixed")
-    if fixed.dtype == bool:
-        if fixed.shape != (n,):
-            raise ShapeError(f"a boolean `fixed` must have shape ({n},), got {fixed.shape}")
-        return fixed.copy()
-    if fixed.size == 0:
-        return np.zeros(n, dtype=bool)
-    if fixed.dtype.kind not in "iu":
-        raise DtypeError("`fixed` must be a boolean mask or integer vertex indices")
-    if fixed.min() < 0 or fixed.max() >= n:
-        bad = int(fixed.ravel()[np.argmax((fixed.ravel() < 0) | (fixed.ravel() >= n))])
-        raise _arrays.not_a_vertex("`fixed` holds", bad, n)
-    out = np.zeros(n, dtype=bool)
-    out[fixed.ravel()] = True
-    return out
+    return _arrays.vertex_mask(fixed, n, "fixed")
 
 
 def values(v, fixed: np.ndarray) -> np.ndarray:
