@@ -17,7 +17,7 @@ Example
 >>> import tetlap
 >>> r = tetlap.info.report(*tetlap.meshes.cube(3))
 >>> r["schema_version"], r["mesh"]["n_tets"], r["primal"]["nsd"], r["dual"]["n_negative_interior"]
-(2, 162, True, 0)
+(3, 162, True, 0)
 """
 
 from __future__ import annotations
@@ -38,8 +38,10 @@ __all__ = ["report", "regular_summary", "plot", "plot_names", "PAIRS", "SCHEMA_V
 #: The version of the report's layout (its keys and their meaning), the first key of
 #: ``tetlap info --json``; raised with every change, each recorded in the CHANGELOG.
 #: 1: the counts at the top level, ``negative_weight_fraction_interior``; 2: the counts
-#: under ``"mesh"``, ``negative_fraction_interior``, ``schema_version`` itself.
-SCHEMA_VERSION = 2
+#: under ``"mesh"``, ``negative_fraction_interior``, ``schema_version`` itself; 3:
+#: ``nsd_min_eigenvalue`` renamed ``nsd_min_eigenvalue_upper_bound`` (a witness's
+#: Rayleigh quotient is an upper bound, not the eigenvalue).
+SCHEMA_VERSION = 3
 
 #: The operators of the report: (Laplacian kind, mass kind).
 PAIRS = (("primal", "barycentric"), ("dual", "circumcentric"))

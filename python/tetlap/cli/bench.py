@@ -36,7 +36,9 @@ def arguments(p) -> None:
                    help="--solve: seconds after which a case is killed, at most 1e6 "
                         "(default: 300)")
     p.add_argument("--quick", action="store_true", help="small sizes, fewer repetitions")
-    p.add_argument("--json", action="store_true", help="print JSON records (default: a table)")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object, {schema_version, benchmark, records} "
+                        "(default: a table)")
 
 
 #: The most repetitions ``--repeat`` takes.
@@ -62,8 +64,8 @@ def run(args) -> int:
 
         names = ["ball 189k"] if args.quick else list(benchmark_solve.MESHES)
         records = benchmark_solve.run(names, cap=args.cap, progress=not args.json)
-        print(_output.json_document(records, indent=1) if args.json
-              else benchmark_solve.table(records))
+        print(_output.json_document(benchmark.document("solve", records), indent=1)
+              if args.json else benchmark_solve.table(records))
         return 0
 
     sizes = args.sizes or (["10k", "100k"] if args.quick else ["100k", "1M"])
@@ -73,5 +75,6 @@ def run(args) -> int:
     records = benchmark.run(kinds, sizes, args.mesh or (), threads=args.threads,
                             repeat=args.repeat or (3 if args.quick else 5), only=args.operators,
                             progress=not args.json)
-    print(_output.json_document(records, indent=1) if args.json else _output.bench_table(records))
+    print(_output.json_document(benchmark.document("assembly", records), indent=1)
+          if args.json else _output.bench_table(records))
     return 0
