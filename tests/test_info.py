@@ -426,6 +426,41 @@ def test_plot_names_files_and_titles_after_the_mesh(tmp_path, monkeypatch):
     assert "% of the weights negative" in titles[1]
 
 
+def test_the_linear_bin_around_zero_is_labelled(tmp_path, monkeypatch):
+    """Issue 30: the symlog histograms drew [-threshold, threshold] as one unlabelled
+    block; 0 and the threshold are ticks now, on every weight and mass axis."""
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    V, T = sliver_ball()
+    _, w = tetlap.edge_weights(V, T, "dual", degenerate="skip")
+    bins, threshold = info.spread_bins(w)
+    ticks, labels = info.spread_ticks(w, bins, threshold)
+    zero = ticks.index(0.0)
+    assert ticks[zero - 1:zero + 2] == [-threshold, 0.0, threshold]
+    assert labels[zero - 1:zero + 2] == ["$-t$", "$0$", "$t$"]
+    assert ticks == sorted(ticks) and len(set(labels)) == len(labels)
+    m = tetlap.mass(V, T, "barycentric", degenerate="skip").diagonal()   # all positive
+    ticks, _ = info.spread_ticks(m, *info.spread_bins(m))
+    assert min(ticks) == -info.spread_bins(m)[1]                       # no empty side
+
+    axes = []
+    save = Figure.savefig
+
+    def savefig(fig, path, **kwargs):
+        axes.extend(fig.axes)
+        return save(fig, path, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    info.plot(V, T, tmp_path, name="sliver")
+    spread = [ax for ax in axes if ax.get_xscale() == "symlog"]
+    assert len(spread) == 4                                    # weights x 2, masses x 2
+    for ax in spread:
+        assert 0.0 in list(ax.get_xticks())
+        assert "$0$" in [t.get_text() for t in ax.get_xticklabels()]
+        assert "t = " in ax.get_xlabel() and "[-t, t]" in ax.get_xlabel()
+
+
 def documented_keys():
     """{section: [keys]} of the tables of docs/api/info-json.md."""
     import pathlib

@@ -261,6 +261,30 @@ def spread_bins(values, per_decade: int = 8):
     return np.concatenate([-outer[::-1], outer]), threshold
 
 
+def spread_ticks(values, bins, threshold: float) -> tuple[list[float], list[str]]:
+    """The ticks and labels of a :func:`spread_bins` axis: at most three decades a side
+    (none within a decade of the linear part), a side without values left out, and always
+    ``-threshold``, ``0`` and ``threshold`` (labelled ``-t``, ``0``, ``t``), the bounds of
+    the one linear bin around 0; :func:`plot` gives ``t`` in the axis label.
+
+    >>> values = [-1.0, 0.5, 2.0, 1e3]
+    >>> ticks, labels = spread_ticks(values, *spread_bins(values))
+    >>> ticks[2:7], labels[2:7]
+    ([-0.1, -0.0015, 0.0, 0.0015, 0.1], ['$-10^{-1}$', '$-t$', '$0$', '$t$', '$10^{-1}$'])
+    """
+    values = np.asarray(values, dtype=np.float64)
+    low, high = np.log10(threshold), np.floor(np.log10(bins[-1]))
+    step = max(1, int(np.ceil((high - low - 1) / 3)))
+    decades = np.arange(high, low + 1, -step)
+    below, above = (values < -threshold).any(), (values > threshold).any()
+    left = [-float(10.0**k) for k in decades] if below else []
+    right = [float(10.0**k) for k in decades[::-1]] if above else []
+    ticks = left + [-float(threshold), 0.0, float(threshold)] + right
+    labels = ([f"$-10^{{{np.log10(-x):.0f}}}$" for x in left] + ["$-t$", "$0$", "$t$"]
+              + [f"$10^{{{np.log10(x):.0f}}}$" for x in right])
+    return ticks, labels
+
+
 def plot_names(name: str) -> list[str]:
     """The file names :func:`plot` writes for a mesh named ``name``.
 
@@ -277,7 +301,8 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     (created if needed); returns their paths. Titles name the mesh (a lone surrogate of
     ``name``, from a file name that is not UTF-8, escaped). Weights and masses are binned
     on symmetric log scales (:func:`spread_bins`), so that slivers' huge values do not
-    collapse the rest into one bar. Needs matplotlib (``pip install
+    collapse the rest into one bar; the linear bin around 0 is shaded, with 0 and its
+    bounds ``-t``, ``t`` labelled (:func:`spread_ticks`; ``t`` in the axis label). Needs matplotlib (``pip install
     ".[experiments]"``), checked first.
 
     Example
@@ -306,26 +331,23 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
         plt.close(fig)
         paths.append(path)
 
-    def spread(ax, values, color):
+    def spread(ax, values, color, what):
         from matplotlib.ticker import NullLocator
 
         bins, threshold = spread_bins(values)
         ax.hist(values, bins=bins, color=color)
-        ax.set_xscale("symlog", linthresh=threshold)
+        ax.set_xscale("symlog", linthresh=threshold, linscale=1.5)
         ax.set_yscale("log")
+        # the one linear bin [-threshold, threshold] shaded, 0 (the black line) and its
+        # bounds labelled; a side without values shown only to -threshold
+        ax.axvspan(-threshold, threshold, color="0.9", zorder=0)
         ax.axvline(0, color="k", lw=0.8)
-        # at most three labelled decades a side, none within a decade of the linear part
-        # around 0 (the black line), and a side without values shown only to -threshold
-        low, high = np.log10(threshold), np.floor(np.log10(bins[-1]))
-        step = max(1, int(np.ceil((high - low - 1) / 3)))
-        decades = np.arange(high, low + 1, -step)
         below, above = (values < -threshold).any(), (values > threshold).any()
         ax.set_xlim(bins[0] if below else -threshold, bins[-1] if above else threshold)
-        ticks = ([-(10.0**k) for k in decades] if below else []) + (
-            [10.0**k for k in decades[::-1]] if above else [])
-        ax.set_xticks(ticks, [f"${'-' if t < 0 else ''}10^{{{np.log10(abs(t)):.0f}}}$"
-                              for t in ticks])
+        ax.set_xticks(*spread_ticks(values, bins, threshold))
         ax.xaxis.set_minor_locator(NullLocator())
+        ax.set_xlabel(f"{what} (symmetric log scale)\nshaded: one bin [-t, t], "
+                      f"t = {threshold:.1e}")
 
     angles = diagnostics.dihedral_angles(V, T).ravel()
     fig, ax = plt.subplots(figsize=(6, 4))
@@ -340,8 +362,7 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     for ax, kind in zip(axes, ("primal", "dual")):
         _, w = assembly.edge_weights(V, T, kind, degenerate="skip")
         negative = (w < 0).mean() if len(w) else 0.0
-        spread(ax, w, "tab:blue" if kind == "primal" else "tab:orange")
-        ax.set_xlabel("edge weight w_ij (symmetric log scale)")
+        spread(ax, w, "tab:blue" if kind == "primal" else "tab:orange", "edge weight w_ij")
         ax.set_ylabel("edges")
         ax.set_title(f"{kind} Laplacian: {100 * negative:.2f}% of the weights negative")
     fig.suptitle(f"{title}: edge weights of the two Laplacians")
@@ -350,8 +371,7 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     for ax, kind in zip(axes, ("barycentric", "circumcentric")):
         m = assembly.mass(V, T, kind, degenerate="skip").diagonal()
-        spread(ax, m, None)
-        ax.set_xlabel("vertex mass (symmetric log scale)")
+        spread(ax, m, None, "vertex mass")
         ax.set_ylabel("vertices")
         ax.set_title(f"{kind} mass: {int((m <= 0).sum())} of {len(m)} vertices with mass <= 0")
     fig.suptitle(f"{title}: lumped masses")
