@@ -445,14 +445,8 @@ def test_the_linear_bin_around_zero_is_labelled(tmp_path, monkeypatch):
     assert min(ticks) == -info.spread_bins(m)[1]                       # no empty side
 
     axes = []
-    save = Figure.savefig
-
-    def savefig(fig, path, **kwargs):
-        axes.extend(fig.axes)
-        return save(fig, path, **kwargs)
-
-    monkeypatch.setattr(Figure, "savefig", savefig)
-    info.plot(V, T, tmp_path, name="sliver")
+    monkeypatch.setattr(Figure, "savefig", lambda fig, path, **kwargs: axes.extend(fig.axes))
+    info.plot(*tetlap.meshes.weighted_ball(300, 0.5, seed=1), tmp_path, name="ball")
     spread = [ax for ax in axes if ax.get_xscale() == "symlog"]
     assert len(spread) == 4                                    # weights x 2, masses x 2
     for ax in spread:
