@@ -13,11 +13,13 @@ use std::sync::{Arc, Mutex, OnceLock};
 /// More workers than that cannot make anything faster; the bound keeps a typo such as
 /// `threads = 10**9` from starting thousands of OS threads.
 pub fn max_threads() -> usize {
-    static MAX: OnceLock<usize> = OnceLock::new();
-    *MAX.get_or_init(|| {
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        (4 * cores).max(8)
-    })
+    (4 * cores()).max(8)
+}
+
+/// The cores this process may run on, asked once (the answer reads the cgroup's files).
+fn cores() -> usize {
+    static CORES: OnceLock<usize> = OnceLock::new();
+    *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
 /// Checks a requested thread count against `1..=max_threads()`: the one check of
@@ -42,8 +44,7 @@ pub const THREADS_VARIABLE: &str = "RAYON_NUM_THREADS";
 /// [`Error::ThreadsVariable`], where rayon would start that many threads or silently
 /// ignore the value.
 pub fn default_threads() -> Result<usize> {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    threads_from_variable(std::env::var(THREADS_VARIABLE).ok().as_deref(), cores)
+    threads_from_variable(std::env::var(THREADS_VARIABLE).ok().as_deref(), cores())
 }
 
 /// [`default_threads`] for the variable's `value` on `cores` cores.
