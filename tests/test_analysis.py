@@ -96,7 +96,7 @@ def test_non_delaunay_dual_is_reported_indefinite_with_negative_weights():
     V, T = tetlap.meshes.weighted_ball(600, 0.5, seed=1)
     L, M = tetlap.operators(V, T, "dual", "circumcentric")
     r = tetlap.check(L, V, T, M)
-    assert r.nsd is False and r.nsd_min_eigenvalue < 0
+    assert r.nsd is False and r.nsd_min_eigenvalue_upper_bound < 0
     assert r.n_negative_interior > 0 and r.linear_precision_ok
     assert "NO" in str(r)
     p = tetlap.check(tetlap.laplacian(V, T, "primal"), V, T)
@@ -151,7 +151,7 @@ def test_certificates_never_contradict_dense_eigenvalues(monkeypatch, case):
             assert r.nsd == expected, (case, hint, r.nsd_method, lam)
             assert "dense" not in r.nsd_method, r.nsd_method
             if r.nsd is False:  # the witness's Rayleigh quotient bounds the smallest eigenvalue
-                assert lam <= r.nsd_min_eigenvalue < 0
+                assert lam <= r.nsd_min_eigenvalue_upper_bound < 0
 
 
 def _random_case(data):
@@ -202,8 +202,8 @@ def test_the_cheap_answers_agree_with_dense_eigenvalues_on_random_small_cases(da
                 assert route == "no dense" and "pivoted" in r.nsd_method, r.nsd_method
                 continue
             assert r.nsd == expected, (hint, r.nsd_method)
-            if r.nsd is False and r.nsd_min_eigenvalue is not None:
-                assert np.linalg.eigvalsh(A)[0] <= r.nsd_min_eigenvalue * (1 - 1e-12) + 1e-300
+            if r.nsd is False and r.nsd_min_eigenvalue_upper_bound is not None:
+                assert np.linalg.eigvalsh(A)[0] <= r.nsd_min_eigenvalue_upper_bound * (1 - 1e-12) + 1e-300
 
 
 @functools.lru_cache
@@ -251,7 +251,7 @@ def test_matrices_only_the_whole_decides_agree_with_dense_by_every_route(monkeyp
     if f in (0.99, 1.001):
         assert r.nsd_method.startswith("dense eigenvalues"), r.nsd_method
         lam = np.linalg.eigvalsh(-L.toarray())[0]
-        assert r.nsd_min_eigenvalue == pytest.approx(lam, abs=1e-12 * abs(L).max())
+        assert r.nsd_min_eigenvalue_upper_bound == pytest.approx(lam, abs=1e-12 * abs(L).max())
 
 
 # ---- the tolerance is relative to each row: no part of a mesh hides another ------------
@@ -525,3 +525,22 @@ def test_the_element_certificate_never_contradicts_dense_eigenvalues_on_the_corp
         assert verdict is True, name  # a sum of Gram matrices
     if verdict and len(V) <= 3000:
         assert nsd_by_definition(L), name
+
+
+def test_a_witness_rayleigh_quotient_is_labelled_an_upper_bound():
+    """Issue 30: a witness's Rayleigh quotient was printed "min eig(-L)" and reported as
+    ``nsd_min_eigenvalue``; it is an upper bound on that eigenvalue."""
+    V, T = tetlap.meshes.weighted_ball(600, 0.5, seed=1)
+    L = tetlap.laplacian(V, T, "dual")
+    r = tetlap.check(L, V, T)
+    assert r.nsd is False and r.nsd_method.startswith("witness")
+    bound = r.nsd_min_eigenvalue_upper_bound
+    assert np.linalg.eigvalsh((-L).toarray())[0] <= bound < 0
+    (row,) = [line for line in str(r).splitlines() if line.startswith("negative semidefinite")]
+    assert f"min eig(-L) <= {bound:.3e}" in row
+    assert "nsd_min_eigenvalue_upper_bound" in r.to_dict() and "nsd_min_eigenvalue" not in r.to_dict()
+    with pytest.deprecated_call(match="upper bound"):
+        assert r.nsd_min_eigenvalue == bound
+    report = tetlap.info.report(V, T, regular=False)
+    assert report["schema_version"] == tetlap.info.SCHEMA_VERSION == 3
+    assert report["dual"]["nsd_min_eigenvalue_upper_bound"] == bound

@@ -71,7 +71,7 @@ def test_version_and_help_import_neither_numpy_nor_scipy():
 
 def test_the_parser_knows_the_defaults():
     args = cli.parser().parse_args(["assemble", "m.vtu", "-o", "x"])
-    assert (args.laplacian, args.mass, args.degenerate) == ("dual", "circumcentric", "raise")
+    assert (args.laplacian, args.mass, args.degenerate) == ("primal", "barycentric", "raise")
     args = cli.parser().parse_args(["bench", "--threads", str(tetlap.MAX_THREADS)])
     assert args.threads == tetlap.MAX_THREADS and args.quick is False and args.repeat is None
     args = cli.parser().parse_args(["info"])
@@ -80,6 +80,18 @@ def test_the_parser_knows_the_defaults():
     assert (args.name, args.quick, args.seed, args.out) == ("flips", True, 3, None)
     args = cli.parser().parse_args(["improve", "m.vtu", "-o", "x"])
     assert (args.margin, args.iterations, args.step, args.threads) == (0.02, 200, 0.3, None)
+
+
+def test_every_command_describes_itself_and_each_experiment_its_quick_time():
+    # issue 30: distributed-info --help and experiment --help had no descriptions
+    parsers = subparsers(cli.parser())
+    for command in cli.COMMANDS:
+        assert command.DESCRIPTION and len(command.DESCRIPTION) > 40, command.NAME
+        assert command.DESCRIPTION.split()[0] in parsers[command.NAME].format_help()
+    text = " ".join(parsers["experiment"].format_help().split())
+    for e in experiments.EXPERIMENTS:
+        assert f"{e.name} {e.about} (--quick: {e.quick} s)" in text
+        assert 0 < e.quick < 120
 
 
 def test_the_experiment_names_come_from_the_registry():
@@ -131,7 +143,8 @@ NUMERIC = sorted(numeric_flags())
 
 def test_the_numeric_flags_are_known():
     assert {f"{c} {f}" for c, f, _ in NUMERIC} == {
-        "info --regular-time", "bench --threads", "bench --repeat", "bench --cap", "experiment --seed",
+        "info --regular-time", "info --threads", "assemble --threads",
+        "bench --threads", "bench --repeat", "bench --cap", "experiment --seed",
         "improve --margin", "improve --iterations", "improve --step", "improve --threads",
         "geodesic --source", "geodesic --time", "geodesic --threads"}
 
@@ -174,6 +187,27 @@ def test_the_messages_of_the_issue(capsys):
     assert cli.main(["bench", "--threads", "0"]) == 2
     err = capsys.readouterr().err       # the core's one check of thread counts
     assert err.startswith("tetlap: error: --threads: threads must be None or an integer from 1")
+
+
+def test_threads_is_the_count_of_every_computation_of_a_command(monkeypatch, cube_file):
+    # issue 30: info and assemble had no --threads; the count reaches the computations
+    # that take no threads= (the diagnostics) through the variable threads=None follows
+    import os
+
+    path, V, T = cube_file
+    seen = []
+
+    def spy(*args, **kwargs):
+        seen.append(os.environ.get("RAYON_NUM_THREADS"))
+        raise tetlap.OptionError("stop here")
+
+    monkeypatch.delenv("RAYON_NUM_THREADS", raising=False)
+    monkeypatch.setattr(tetlap.info, "report", spy)
+    monkeypatch.setattr(tetlap.assembly, "operators", spy)
+    assert cli.main(["info", str(path), "--threads", "1"]) == 2
+    assert cli.main(["assemble", str(path), "-o", "x", "--threads", "2"]) == 2
+    assert cli.main(["info", str(path)]) == 2
+    assert seen == ["1", "2", None] and "RAYON_NUM_THREADS" not in os.environ
 
 
 def test_step_zero_as_users_type_it(tmp_path):

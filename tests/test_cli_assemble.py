@@ -38,15 +38,50 @@ def test_assemble_defaults_an_affine_kind_and_the_output_names(cube_file, tmp_pa
     path, V, T = cube_file
     assert assemble.output_names("ops") == ("ops.npz", "ops.mass.npz")
     assert assemble.output_names("ops.npz") == ("ops.npz", "ops.mass.npz")
-    assert cli.main(["assemble", str(path), "-o", str(tmp_path / "a")]) == 0  # dual + circ.
+    # the API's defaults, primal + barycentric (issue 30: it was dual + circumcentric)
+    assert cli.main(["assemble", str(path), "-o", str(tmp_path / "a")]) == 0
     L, M = sp.load_npz(tmp_path / "a.npz"), sp.load_npz(tmp_path / "a.mass.npz")
-    assert (L != tetlap.laplacian(V, T, "dual")).nnz == 0
-    assert (M != tetlap.mass(V, T, "circumcentric")).nnz == 0
+    reference = tetlap.operators(V, T)
+    assert (L != reference[0]).nnz == 0 and (M != reference[1]).nnz == 0
     assert cli.main(["assemble", str(path), "-o", str(tmp_path / "b.npz"), "--laplacian", "0.25"]) == 0
     assert (sp.load_npz(tmp_path / "b.npz") != tetlap.laplacian(V, T, 0.25)).nnz == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0] == f"L (dual, {len(V)} x {len(V)}, {L.nnz} entries) -> {tmp_path / 'a.npz'}"
-    assert out[1] == f"M (circumcentric) -> {tmp_path / 'a.mass.npz'}"
+    assert out[0] == f"L (primal, {len(V)} x {len(V)}, {L.nnz} entries) -> {tmp_path / 'a.npz'}"
+    assert out[1] == f"M (barycentric) -> {tmp_path / 'a.mass.npz'}"
+
+
+def test_a_mass_with_non_positive_entries_is_a_warning_naming_the_mixed_mass(tmp_path, capsys):
+    pytest.importorskip("meshio")
+    V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)   # non-Delaunay: negative dual cells
+    V = np.vstack([V, [[5.0, 5.0, 5.0]]])                  # an unused vertex has mass 0: no count
+    path = tmp_path / "ball.vtu"
+    tetlap.io.write(path, V, T)
+    masses = tetlap.mass(V, T, "circumcentric").diagonal()[:-1]
+    bad = int((masses <= 0).sum())
+    assert bad > 0
+    for mass, warned in (("circumcentric", True), ("mixed", False), ("barycentric", False)):
+        assert cli.main(["assemble", str(path), "-o", str(tmp_path / mass), "--mass", mass]) == 0
+        err = capsys.readouterr().err
+        if warned:
+            assert err == (f"tetlap: warning: M (circumcentric) has {bad} non-positive diagonal "
+                           "entries at vertices of the mesh (dual cells of a non-Delaunay "
+                           "mesh); --mass mixed gives positive dual masses\n")
+        else:
+            assert err == ""
+
+
+@pytest.mark.parametrize("output", ["out/", "out/.npz", ".", "./"])
+def test_an_output_folder_gets_files_named_after_the_mesh(output, cube_file, tmp_path,
+                                                         monkeypatch):
+    # issue 30: -o out/ wrote the hidden files out/.npz and out/.mass.npz
+    path, V, T = cube_file
+    monkeypatch.chdir(tmp_path)
+    assert assemble.output_names(output, str(path)) == (
+        f"{output.removesuffix('.npz').rstrip('/') or '.'}/cube.npz".replace("./.", "."),
+        f"{output.removesuffix('.npz').rstrip('/') or '.'}/cube.mass.npz".replace("./.", "."))
+    assert cli.main(["assemble", str(path), "-o", output]) == 0
+    folder = tmp_path / output.removesuffix(".npz")
+    assert sorted(p.name for p in folder.glob("*.npz")) == ["cube.mass.npz", "cube.npz"]
 
 
 def test_the_output_folder_is_created(cube_file, tmp_path, capsys):
@@ -54,7 +89,7 @@ def test_the_output_folder_is_created(cube_file, tmp_path, capsys):
     path, V, T = cube_file
     output = tmp_path / "new" / "deeper" / "ops"
     assert cli.main(["assemble", str(path), "-o", str(output)]) == 0
-    assert (sp.load_npz(f"{output}.npz") != tetlap.laplacian(V, T, "dual")).nnz == 0
+    assert (sp.load_npz(f"{output}.npz") != tetlap.laplacian(V, T)).nnz == 0
     assert (tmp_path / "new" / "deeper" / "ops.mass.npz").is_file()
 
 
@@ -70,7 +105,7 @@ def test_an_unwritable_output_is_one_line(cube_file, tmp_path, capsys):
 def test_assemble_errors_are_exit_code_2(cube_file, tmp_path, capsys):
     path, V, T = cube_file
     assert cli.main(["assemble", str(path), "-o", str(tmp_path / "x"), "--laplacian", "cotan"]) == 2
-    assert "tetlap: error: --laplacian: kind must be" in capsys.readouterr().err
+    assert "tetlap: error: --laplacian: Laplacian kind must be" in capsys.readouterr().err
     flat = tmp_path / "flat.vtu"
     tetlap.io.write(flat, V, np.vstack([T, [[0, 4, 16, 20]]]))  # four vertices on z = 0
     assert cli.main(["assemble", str(flat), "-o", str(tmp_path / "y")]) == 2

@@ -21,7 +21,11 @@ from conftest import run_tetlap as run, strict_json
 def test_bench_quick_smoke():
     out = run("bench", "--sizes", "10k", "--repeat", "1", "--quick", "--json")
     assert out.returncode == 0, out.stderr
-    records = strict_json(out.stdout)
+    document = strict_json(out.stdout)
+    assert list(document) == ["schema_version", "benchmark", "records"]
+    assert document["schema_version"] == benchmark.SCHEMA_VERSION == 1  # issue 30: none
+    assert document["benchmark"] == "assembly"
+    records = document["records"]
     cases = {r["case"] for r in records}
     assert {"floor", "tetlap primal", "tetlap dual", "Mesh: update 20 vertices"} <= cases
     assert all(r["median_s"] > 0 for r in records)
@@ -31,7 +35,7 @@ def test_bench_quick_smoke():
 def test_bench_operator_filter():
     out = run("bench", "--sizes", "10k", "--repeat", "1", "--quick", "--json", "--operators", "dual")
     assert out.returncode == 0, out.stderr
-    cases = {r["case"] for r in strict_json(out.stdout)}
+    cases = {r["case"] for r in strict_json(out.stdout)["records"]}
     assert "tetlap dual" in cases and "tetlap primal" not in cases and "floor" in cases
 
 
@@ -42,7 +46,7 @@ def test_bench_a_mesh_file(tmp_path, capsys):
     tetlap.io.write(path, V, T)
     assert cli.main(["bench", "--mesh", str(path), "--repeat", "1", "--json",
                      "--operators", "tetlap primal"]) == 0
-    records = strict_json(capsys.readouterr().out)
+    records = strict_json(capsys.readouterr().out)["records"]
     assert {r["mesh"] for r in records} == {"cube4.vtu"}  # --mesh alone: no generated kinds
     assert all(r["n_tets"] == len(T) and r["n_vertices"] == len(V) for r in records)
     assert {"floor", "tetlap primal"} <= {r["case"] for r in records}
@@ -103,4 +107,6 @@ def test_bench_solve_runs_the_solve_benchmark(monkeypatch, capsys):
     monkeypatch.setattr(benchmark_solve, "run", fake_run)
     assert cli.main(["bench", "--solve", "--quick", "--cap", "30", "--json"]) == 0
     assert seen == {"names": ["ball 189k"], "cap": 30.0}
-    assert strict_json(capsys.readouterr().out)[0]["case"] == "dirichlet primal"
+    document = strict_json(capsys.readouterr().out)
+    assert (document["schema_version"], document["benchmark"]) == (benchmark.SCHEMA_VERSION, "solve")
+    assert document["records"][0]["case"] == "dirichlet primal"

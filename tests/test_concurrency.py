@@ -140,3 +140,60 @@ def test_concurrent_calls_equal_serial_calls():
     with ThreadPoolExecutor(max_workers=6) as pool:
         parallel = list(pool.map(run, jobs))
     assert parallel == serial
+
+
+# A child with RAYON_NUM_THREADS set: threads=None obeys the bound of threads= (an
+# OptionError naming the variable, before any thread starts), an explicit count ignores
+# the variable, and the native threads stay few. The timeout ends a child that starts
+# threads without bound (what rayon's global pool did with 100000).
+_ENVIRONMENT_CHILD = r"""
+import json, sys
+import numpy as np
+import tetlap
+V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1.]])
+T = np.array([[0, 1, 2, 3], [1, 2, 3, 4]])
+out = {"explicit": tetlap.laplacian(V, T, threads=2).nnz,
+       "mesh": tetlap.Mesh(V, T, threads=1).laplacian().nnz}
+try:
+    out["default"] = tetlap.laplacian(V, T).nnz
+except tetlap.OptionError as e:
+    out["error"] = str(e)
+with open("/proc/self/status") as f:
+    out["native"] = int(next(l for l in f if l.startswith("Threads:")).split()[1])
+print(json.dumps(out))
+"""
+
+
+@pytest.mark.parametrize("value, accepted", [  # every case: the core's threads tests
+    ("100000", False), ("-3", False), ("abc", False), ("0", True), ("MAX", True)])
+def test_rayon_num_threads_obeys_the_bound_of_threads(value, accepted):
+    import json
+    import os
+    import subprocess
+    import sys
+
+    value = str(tetlap.MAX_THREADS) if value == "MAX" else value
+    env = {**os.environ, "RAYON_NUM_THREADS": value}
+    out = subprocess.run([sys.executable, "-c", _ENVIRONMENT_CHILD], env=env,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    result = json.loads(out.stdout)
+    assert result["explicit"] == result["mesh"] == 23
+    if accepted:
+        assert result["default"] == 23 and "error" not in result
+    else:
+        assert "default" not in result
+        assert f'RAYON_NUM_THREADS is "{value}"' in result["error"]
+        assert str(tetlap.MAX_THREADS) in result["error"]
+    assert result["native"] <= 3 * tetlap.MAX_THREADS + 8, result
+
+
+def test_options_check_the_environment_before_any_work(monkeypatch):
+    from tetlap import _options
+
+    monkeypatch.setenv("RAYON_NUM_THREADS", "100000")
+    with pytest.raises(tetlap.OptionError, match="RAYON_NUM_THREADS"):
+        _options.threads(None, "--threads")
+    assert _options.threads(2) == 2
+    monkeypatch.setenv("RAYON_NUM_THREADS", "1")
+    assert _options.threads(None) is None

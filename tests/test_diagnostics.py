@@ -228,3 +228,36 @@ def test_a_mesh_object_stands_for_t_or_for_v_and_t():
     np.testing.assert_array_equal(d.mesh_edges(obj), d.mesh_edges(T))
     np.testing.assert_array_equal(d.signed_volumes(obj), d.signed_volumes(V, T))
     assert d.summary(obj) == d.summary(V, T)
+
+
+def test_topology_functions_take_v_and_t_a_mesh_object_or_t_and_n():
+    # issue 30: boundary_vertices(T, n) broke the (V, T) order of every other function, and
+    # boundary_vertices(V, T) blamed T for V's float dtype
+    meshio = pytest.importorskip("meshio")
+    V, T = tetlap.meshes.cube(3, jitter=0.1, seed=1)
+    V = np.vstack([V, [[9.0, 9.0, 9.0]]])  # an unreferenced last vertex: n = len(V)
+    mesh = meshio.Mesh(V, [("tetra", T)])
+    n = len(V)
+    for f in (d.boundary_vertices, d.interior_vertices, d.referenced_vertices):
+        expected = f(T, n)
+        assert expected.shape == (n,) and not expected[-1]
+        for args in ((V, T), (mesh,), (V, T.tolist())):
+            np.testing.assert_array_equal(f(*args), expected)
+        np.testing.assert_array_equal(f(T), expected[:-1])  # n = T.max() + 1
+    for f in (d.faces, d.boundary_faces, d.nonmanifold_faces, d.mesh_edges, d.duplicate_tets):
+        np.testing.assert_array_equal(f(V, T), f(T))
+        np.testing.assert_array_equal(f(mesh), f(T))
+    for a, b in zip(d.interior_faces(V, T), d.interior_faces(T)):
+        np.testing.assert_array_equal(a, b)
+    # errors name the argument at fault
+    with pytest.raises(tetlap.DtypeError, match="^V must"):
+        d.boundary_vertices(V.astype(str), T)
+    with pytest.raises(tetlap.DtypeError, match="^T must"):
+        d.boundary_vertices(V, T.astype(float))
+    with pytest.raises(tetlap.OptionError, match="n must be an integer >= "):
+        d.referenced_vertices(T, 5)  # an n below an index of T (a bare IndexError once)
+    np.testing.assert_array_equal(d.referenced_vertices(T, n=n), d.referenced_vertices(V, T))
+    with pytest.raises(tetlap.IndexRangeError, match=f"there are {n - 30} vertices"):
+        d.interior_vertices(V[:-30], T)
+    with pytest.raises(TypeError, match="mesh object"):
+        d.boundary_vertices(mesh, T)

@@ -96,3 +96,112 @@ def test_mesh_file_errors_name_the_file(tmp_path):
     with pytest.raises(tetlap.MeshFileError, match=r"noise\.msh") as e:
         tetlap.io.read(path)
     assert isinstance(e.value, ValueError)
+
+
+# ---- texts that say no more than is known (issue 30 item 13) ----------------------------
+
+
+def test_index_ranges_are_said_as_people_read_them():
+    """'valid indices are 0..64' for 64 vertices read as 65 indices: every index error says
+    how many vertices there are and the last index."""
+    V, T = tetlap.meshes.cube(3)                       # 64 vertices
+    L = tetlap.laplacian(V, T)
+    fixed = tetlap.diagnostics.boundary_vertices(V, T)
+    calls = [lambda: tetlap.laplacian(V, np.array([[0, 1, 2, 64]])),
+             lambda: tetlap.Mesh(V, np.array([[0, 1, 2, 64]])),
+             lambda: solve.dirichlet(L, [0, 64], 0.0),
+             lambda: solve.neumann(L, np.zeros(64), gauge=64),
+             lambda: tetlap.heat_distance(V, T, 64),
+             lambda: tetlap.harmonic(V, T, [0, 64], [0.0, 1.0])]
+    for call in calls:
+        with pytest.raises(tetlap.IndexRangeError) as e:
+            call()
+        message = str(e.value)
+        assert "there are 64 vertices, 0 to 63" in message and "0..64" not in message, message
+        assert e.value.index == 64
+
+
+def test_a_collinear_triangle_is_not_said_to_have_zero_volume():
+    V = [[0, 0, 0], [1, 0, 0], [2, 0, 0]]
+    with pytest.raises(tetlap.DegenerateElementError, match="zero area for a triangle") as e:
+        tetlap.laplacian(V, [[0, 1, 2]])
+    assert e.value.element == 0
+
+
+def test_kind_errors_name_no_argument_the_call_did_not_use():
+    """operators(laplacian="cotan") answered "kind must be ...": each message names the
+    value's role (operators, Mesh, HeatDistance, vjp and the energies call it kind=,
+    laplacian= or mass=)."""
+    V, T = tetlap.meshes.cube(2)
+    f = V[:, 0]
+    for call, role in [
+        (lambda: tetlap.operators(V, T, laplacian="cotan"), "Laplacian kind"),
+        (lambda: tetlap.operators(V, T, mass="cotan"), "mass kind"),
+        (lambda: tetlap.laplacian(V, T, kind="cotan"), "Laplacian kind"),
+        (lambda: tetlap.Mesh(V, T).laplacian("cotan"), "Laplacian kind"),
+        (lambda: tetlap.HeatDistance(V, T, laplacian="cotan"), "Laplacian kind"),
+        (lambda: tetlap.vjp(V, T, "cotan"), "Laplacian kind"),
+        (lambda: tetlap.mass_energy(V, T, f, "cotan"), "mass kind"),
+        (lambda: tetlap.laplacian(V, T, boundary="cotan"), "boundary treatment of the dual"),
+        (lambda: tetlap.HeatDistance(V, T, dual_boundary="cotan"),
+         "boundary treatment of the dual"),
+    ]:
+        with pytest.raises(tetlap.OptionError) as e:
+            call()
+        assert str(e.value).startswith(f"{role} must be "), str(e.value)
+        assert "got 'cotan'" in str(e.value)
+
+
+def test_tet_only_functions_say_that_triangles_are_not_tets():
+    V, T = [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]]
+    L = tetlap.laplacian(V, T)
+    for call in (lambda: tetlap.check(L, V, T), lambda: tetlap.info.report(V, T),
+                 lambda: tetlap.diagnostics.signed_volumes(V, T)):
+        with pytest.raises(tetlap.ShapeError, match=r"got \(1, 3\): triangles, and this "
+                                                    "function needs tets"):
+            call()
+
+
+@pytest.mark.parametrize("solver", ["auto", "cholesky", "lu"])
+def test_dirichlet_values_near_the_float64_limit_are_solved_not_called_singular(solver):
+    V, T = tetlap.meshes.cube(3)
+    L = tetlap.laplacian(V, T)
+    fixed = tetlap.diagnostics.boundary_vertices(V, T)
+    for value in (1e308, -1.7e308):
+        f = solve.dirichlet(L, fixed, value, solver=solver)  # was "singular"
+        np.testing.assert_allclose(f, value, rtol=1e-12)
+    step = np.where(V[:, 0] > 0.5, 1e308, -1e308)
+    f = solve.dirichlet(L, fixed, step, solver=solver)
+    assert np.isfinite(f).all() and np.abs(f).max() <= 1e308 * (1 + 1e-12)
+    f1 = solve.dirichlet(L, fixed, step / 2**1000, solver=solver)
+    np.testing.assert_array_equal(f, f1 * 2**1000)  # scaled exactly by a power of two
+    with pytest.raises(tetlap.NonFiniteError, match="float64 range"):
+        solve.dirichlet(L, fixed, 1e308, rhs=np.full(len(V), -1e308), solver=solver)
+
+
+def test_fixed_is_a_mask_or_indices_everywhere_and_empty_means_none():
+    """``fixed=[]`` is a float array to NumPy: it was a DtypeError (solve) or a ShapeError
+    (improve, which read indices as a mask)."""
+    V, T = tetlap.meshes.cube(3, jitter=0.2, seed=1)
+    n = len(V)
+    L, M = tetlap.operators(V, T)
+    lam, _ = solve.eigs(L, M, 3, fixed=[])
+    np.testing.assert_array_equal(lam, solve.eigs(L, M, 3)[0])
+    with pytest.raises(tetlap.SolveError, match="no fixed vertex"):
+        solve.dirichlet(L, [], 0.0)           # the real problem, not the dtype of []
+    plain = tetlap.improve.improve(V, T, max_iterations=3)
+    same = tetlap.improve.improve(V, T, fixed=[], max_iterations=3)
+    np.testing.assert_array_equal(plain.V, same.V)
+    inner = np.flatnonzero(tetlap.diagnostics.interior_vertices(V, T))[:2]
+    by_index = tetlap.improve.improve(V, T, fixed=inner, max_iterations=3)
+    mask = np.zeros(n, dtype=bool)
+    mask[inner] = True
+    np.testing.assert_array_equal(by_index.V, tetlap.improve.improve(V, T, fixed=mask,
+                                                                     max_iterations=3).V)
+    np.testing.assert_array_equal(by_index.V[inner], V[inner])
+    for bad, error in (([0.5], tetlap.DtypeError), ([n], tetlap.IndexRangeError),
+                       (np.ones(3, bool), tetlap.ShapeError)):
+        for call in (lambda: tetlap.improve.improve(V, T, fixed=bad),
+                     lambda: solve.dirichlet(L, bad, 0.0)):
+            with pytest.raises(error, match="fixed"):
+                call()

@@ -72,6 +72,8 @@ def test_sphere3(tmp_path):
     assert float(last["curvature_error_mean_dual"]) < 0.5 * float(first["curvature_error_mean_dual"])
     assert float(last["curvature_error_mean_primal"]) > 0.05
     assert all(float(r["min_weight_dual"]) > 0 for r in data)
+    summary = (tmp_path / "sphere3" / "summary.txt").read_text()
+    assert f"dual, {first['n_vertices']} -> {last['n_vertices']} samples:" in summary
 
 
 @pytest.mark.slow
@@ -223,3 +225,48 @@ def test_a_failed_case_is_explained_in_the_summary_not_printed_as_nan(monkeypatc
                           for r in failed)
     assert "nan" not in summary
     assert "n/a (the mass matrix is not positive; M[3, 3] = -1e-05)" in summary
+    # issue 30: the summary names the sizes ("by size: 0.0938, 0.0425" did not)
+    counts = ", ".join(dict.fromkeys(r["n_vertices"] for r in data
+                                     if r["family"] == "random Delaunay"))
+    assert f"random Delaunay, meshes of {counts} vertices:" in summary
+
+
+def test_summaries_name_their_sizes_and_hint_at_the_readme_s_install(monkeypatch, tmp_path):
+    """Issue 30: heat-distance listed errors 'by size' without the sizes and dropped LaPy
+    without a word; the install hints of the summaries are the README's."""
+    import sys
+
+    for module in ("lapy", "matplotlib"):
+        monkeypatch.setitem(sys.modules, module, None)
+    folder = experiments.run("heat-distance", quick=True, out=tmp_path / "heat")
+    summary = (folder / "summary.txt").read_text()
+    data = rows(folder)
+    for family in ("ball", "box"):
+        counts = ", ".join(dict.fromkeys(r["n_vertices"] for r in data if r["family"] == family))
+        assert f"  {family}, meshes of {counts} vertices:" in summary
+    assert '(LaPy is not installed: pip install ".[baselines]")' in summary
+    assert ('(figure distance_slice.png skipped: matplotlib is not installed: '
+            'pip install ".[experiments]")') in summary
+
+
+def test_every_install_hint_is_the_readme_s(monkeypatch):
+    import pathlib
+    import re
+    import tomllib
+
+    root = pathlib.Path(tetlap.__file__).parent
+    extras = tomllib.loads((root.parent.parent / "pyproject.toml").read_text())[
+        "project"]["optional-dependencies"]
+    readme = (root.parent.parent / "README.md").read_text()
+    assert 'pip install ".[io]"' in readme and "tetlap[" not in readme
+    for path in root.rglob("*.py"):
+        text = path.read_text()
+        assert "pip install 'tetlap[" not in text, path  # not the README's (nor on PyPI)
+        for extra in re.findall(r'pip install "\.\[(\w+)\]"', text):
+            assert extra in extras, (path, extra)
+    assert tetlap._extras.hint("meshing") == 'pip install ".[meshing]"'
+    import sys
+
+    monkeypatch.setitem(sys.modules, "gmsh", None)
+    with pytest.raises(ImportError, match=r'need gmsh: pip install "\.\[meshing\]"'):
+        tetlap.meshes._gmsh()

@@ -175,7 +175,7 @@ def assert_operator_report(V, T, kind, r, boundary):
         assert r["nsd"], "the primal is always negative semidefinite"
     if r["nsd_method"] == "dense eigenvalues":
         lam = np.linalg.eigvalsh(-(L + L.T).toarray() / 2)[0]
-        assert r["nsd_min_eigenvalue"] == pytest.approx(lam, abs=1e-10 * scale)
+        assert r["nsd_min_eigenvalue_upper_bound"] == pytest.approx(lam, abs=1e-10 * scale)
         if abs(lam) > 1e-8 * scale:
             assert r["nsd"] == (lam > 0 or lam >= -1e-9 * scale)
     # the mass: barycentric = |Vol| / 4 per corner; circumcentric by the pyramid identity
@@ -276,7 +276,7 @@ def test_nsd_false_skips_the_certificates_only():
     a, b = info.report(V, T, progress=False), info.report(V, T, nsd=False, progress=False)
     for kind in PAIRS:
         assert b[kind]["nsd"] is None and "skipped" in b[kind]["nsd_method"]
-        for key in set(a[kind]) - {"nsd", "nsd_min_eigenvalue", "nsd_method"}:
+        for key in set(a[kind]) - {"nsd", "nsd_min_eigenvalue_upper_bound", "nsd_method"}:
             assert a[kind][key] == b[kind][key], key
     assert a["mesh"] == b["mesh"]
 
@@ -424,6 +424,35 @@ def test_plot_names_files_and_titles_after_the_mesh(tmp_path, monkeypatch):
     masses = titles[2]
     assert "barycentric mass: 0 of " in masses and "vertices with mass <= 0" in masses
     assert "% of the weights negative" in titles[1]
+
+
+def test_the_linear_bin_around_zero_is_labelled(tmp_path, monkeypatch):
+    """Issue 30: the symlog histograms drew [-threshold, threshold] as one unlabelled
+    block; 0 and the threshold are ticks now, on every weight and mass axis."""
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    V, T = sliver_ball()
+    _, w = tetlap.edge_weights(V, T, "dual", degenerate="skip")
+    bins, threshold = info.spread_bins(w)
+    ticks, labels = info.spread_ticks(w, bins, threshold)
+    zero = ticks.index(0.0)
+    assert ticks[zero - 1:zero + 2] == [-threshold, 0.0, threshold]
+    assert labels[zero - 1:zero + 2] == ["$-t$", "$0$", "$t$"]
+    assert ticks == sorted(ticks) and len(set(labels)) == len(labels)
+    m = tetlap.mass(V, T, "barycentric", degenerate="skip").diagonal()   # all positive
+    ticks, _ = info.spread_ticks(m, *info.spread_bins(m))
+    assert min(ticks) == -info.spread_bins(m)[1]                       # no empty side
+
+    axes = []
+    monkeypatch.setattr(Figure, "savefig", lambda fig, path, **kwargs: axes.extend(fig.axes))
+    info.plot(*tetlap.meshes.weighted_ball(300, 0.5, seed=1), tmp_path, name="ball")
+    spread = [ax for ax in axes if ax.get_xscale() == "symlog"]
+    assert len(spread) == 4                                    # weights x 2, masses x 2
+    for ax in spread:
+        assert 0.0 in list(ax.get_xticks())
+        assert "$0$" in [t.get_text() for t in ax.get_xticklabels()]
+        assert "t = " in ax.get_xlabel() and "[-t, t]" in ax.get_xlabel()
 
 
 def documented_keys():

@@ -32,6 +32,16 @@ def test_every_public_name_resolves_and_star_import_sees_them():
     assert issubclass(tetlap.OptionError, tetlap.TetlapError)
 
 
+def test_dir_lists_public_names_only():
+    import tetlap.cli  # noqa: F401 - an imported public submodule is listed
+
+    listed = set(dir(tetlap))
+    assert not {"TYPE_CHECKING", "annotations", "importlib"} & listed  # issue 30
+    others = {name for name in listed - set(tetlap.__all__) if not name.startswith("__")}
+    assert "cli" in others and all(
+        getattr(tetlap, name).__name__ == f"tetlap.{name}" for name in others), others
+
+
 def test_every_submodule_is_an_attribute():
     for module in pkgutil.iter_modules(tetlap.__path__):
         if module.name in ("__main__", "jax", "torch", "distributed"):

@@ -292,3 +292,87 @@ def test_io_roundtrip_and_dropped_cells(tmp_path):
         V2, T2 = tetlap.io.read(path)
     np.testing.assert_array_equal(T2, T)
     np.testing.assert_allclose(V2, V)
+
+
+def _absurd_files(big: int) -> dict[str, bytes]:
+    """Small files of every corpus format whose headers declare ``big`` vertices or
+    elements (meshio allocates what a header declares)."""
+    import struct
+
+    tet = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+    nodes = "".join(f"{i + 1} {p}\n" for i, p in enumerate(tet.splitlines()))
+    medit = "MeshVersionFormatted 2\nDimension 3\nVertices\n{}\n" + \
+        "".join(f"{p} 1\n" for p in tet.splitlines()) + "Tetrahedra\n{}\n1 2 3 4 1\nEnd\n"
+    gmsh = ("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n{}\n" + nodes +
+            "$EndNodes\n$Elements\n{}\n1 4 2 0 0 1 2 3 4\n$EndElements\n")
+    legacy = ("# vtk DataFile Version 2.0\nx\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS {} float\n"
+              + tet + "CELLS {} {}\n4 0 1 2 3\nCELL_TYPES 1\n10\n")
+    xml = ('<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">'
+           '<UnstructuredGrid><Piece NumberOfPoints="{}" NumberOfCells="1"><Points>'
+           '<DataArray type="Float64" NumberOfComponents="3" format="ascii">' + tet +
+           '</DataArray></Points><Cells>'
+           '<DataArray type="Int64" Name="connectivity" format="ascii">0 1 2 3</DataArray>'
+           '<DataArray type="Int64" Name="offsets" format="ascii">4</DataArray>'
+           '<DataArray type="UInt8" Name="types" format="ascii">10</DataArray>'
+           '</Cells></Piece></UnstructuredGrid></VTKFile>\n')
+    binary_gmsh = (b"$MeshFormat\n2.2 1 8\n" + struct.pack("<i", 1) + b"\n$EndMeshFormat\n"
+                   b"$Nodes\n%d\n" % big + b"".join(
+                       struct.pack("<i3d", i + 1, *map(float, p.split()))
+                       for i, p in enumerate(tet.splitlines())) + b"\n$EndNodes\n")
+    binary_vtk = (b"# vtk DataFile Version 2.0\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\n"
+                  b"POINTS %d float\n" % big + np.eye(4, 3, -1, dtype=">f4").tobytes() + b"\n")
+    return {
+        "points.mesh": medit.format(big, 1).encode(), "tets.mesh": medit.format(4, big).encode(),
+        "points.msh": gmsh.format(big, 1).encode(), "tets.msh": gmsh.format(4, big).encode(),
+        "binary.msh": binary_gmsh,
+        "points.vtk": legacy.format(big, 1, 5).encode(),
+        "tets.vtk": legacy.format(4, big, 5 * big).encode(),
+        "binary.vtk": binary_vtk,
+        "points.vtu": xml.format(big).encode(),
+        "points.ele": b"1 4 0\n0 0 1 2 3\n", "points.node": f"{big} 3 0 0\n{tet}".encode(),
+        "tets.ele": f"{big} 4 0\n0 0 1 2 3\n".encode(), "tets.node": f"4 3 0 0\n{tet}".encode(),
+    }
+
+
+@pytest.mark.parametrize("big", [10**12, 2 * 10**8, 10**30])
+def test_files_that_declare_absurd_sizes_are_mesh_file_errors(tmp_path, big):
+    # 10^12: a bare MemoryError (29.1 TiB) before; 10^30: an OverflowError inside meshio;
+    # 2e8: allocated lazily, a ValueError when the data runs out
+    files = _absurd_files(big)
+    for name, content in files.items():
+        (tmp_path / name).write_bytes(content)
+    for name in files:
+        broken = "points.node" if name == "points.ele" else name  # meshio reads both
+        with pytest.raises(tetlap.MeshFileError, match=broken.replace(".", r"\.")):
+            tetlap.io.read(tmp_path / name)
+
+
+def test_readers_running_out_of_memory_are_mesh_file_errors(tmp_path, monkeypatch):
+    # counts a header cannot hold are refused before reading; what meshio allocates from
+    # the data (a gmsh node tag of 10^12 sizes its renumbering array) is wrapped
+    path = tmp_path / "tag.msh"
+    path.write_text("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n"
+                    "3 0 1 0\n1000000000000 0 0 1\n$EndNodes\n$Elements\n1\n"
+                    "1 4 2 0 0 1 2 3 1000000000000\n$EndElements\n")
+    with pytest.raises(tetlap.MeshFileError, match="tag.msh.*fits in memory.*Overflow"):
+        tetlap.io.read(path)
+
+    def out_of_memory(*args, **kwargs):
+        raise MemoryError("Unable to allocate 29.1 TiB for an array")
+
+    monkeypatch.setattr(meshio, "read", out_of_memory)
+    with pytest.raises(tetlap.MeshFileError, match="tag.msh.*fits in memory.*29.1 TiB"):
+        tetlap.io.read(path)
+
+
+def test_the_command_reports_an_absurd_file_in_one_line(tmp_path):
+    from conftest import run_tetlap
+
+    path = tmp_path / "points.mesh"
+    path.write_bytes(_absurd_files(10**12)["points.mesh"])
+    for command in (["info", "--no-nsd", "--no-regular"], ["assemble", "-o", str(tmp_path / "L")]):
+        out = run_tetlap(*command[:1], str(path), *command[1:])
+        assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
+        last = out.stderr.splitlines()[-1]   # after the steps info reports on stderr
+        assert last.startswith("tetlap: error: ") and out.stderr.count("tetlap: error") == 1
+        assert "points.mesh: its header declares 1000000000000 records" in last

@@ -276,3 +276,48 @@ def test_gmsh_meshes_are_positive_and_on_their_spheres():
         np.testing.assert_allclose(r[spheres == k], radius, atol=1e-9)
     assert (r > 0.5 - 1e-9).all()
     assert tetlap.diagnostics.min_dihedral_angles(V, T).min() > 10
+
+
+# ---- options checked, no third-party exception (issue 30 item 13) -----------------------
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: meshes.ball(0), "n must be an integer >= 4"),           # was a QhullError
+    (lambda: meshes.shell(0), "n must be a positive integer"),       # ZeroDivisionError
+    (lambda: meshes.cube(jitter=float("nan")), "jitter"),            # OverflowError
+    (lambda: meshes.cube(3, jitter=1e308), "jitter must be at most 0.25"),
+    (lambda: meshes.cube(10**6), "k must be at most 563"),           # MemoryError
+    (lambda: meshes.cube(2.5), "k must be a positive integer"),      # accepted
+    (lambda: meshes.cube(True), "k must be a positive integer"),
+    (lambda: meshes.ball(1000.0), "n must be an integer"),
+    (lambda: meshes.ball(10**12), "n must be at most"),
+    (lambda: meshes.cube(3, seed=-1), "seed must be a non-negative integer"),
+    (lambda: meshes.ball(100, seed=0.5), "seed"),
+    (lambda: meshes.weighted_ball(500, 1e300), "weight_scale must be at most"),  # QhullError
+    (lambda: meshes.weighted_ball(4), "n must be an integer >= 5"),
+    (lambda: meshes.shell(100, weight_scale=-1), "weight_scale"),
+    (lambda: meshes.sphere3(4), "n must be an integer >= 5"),
+    (lambda: meshes.optimized_ball(1e-5), "h must be at least"),
+    (lambda: meshes.optimized_shell(float("nan")), "h must be a positive number"),
+    (lambda: meshes.single_tet("square"), "kind"),
+])
+def test_generator_options_are_option_errors_before_any_work(call, match):
+    with pytest.raises(tetlap.OptionError, match=match):
+        call()
+
+
+def test_generators_leak_no_third_party_exception(monkeypatch):
+    with pytest.raises(tetlap.ShapeError, match="span no tetrahedralisation"):
+        meshes.regular_triangulation(np.zeros((6, 3)), np.zeros(6))   # was a QhullError
+    with pytest.raises(tetlap.NonFiniteError):
+        meshes.regular_triangulation(np.full((6, 3), np.nan), np.zeros(6))
+    with pytest.raises(tetlap.ShapeError, match="weights"):
+        meshes.regular_triangulation(np.eye(4, 3), np.zeros(3))
+
+    def out_of_memory(*args, **kwargs):
+        raise MemoryError("Unable to allocate 24.0 GiB for an array")
+
+    monkeypatch.setattr(meshes, "_ball_points", out_of_memory)
+    with pytest.raises(tetlap.OptionError, match=r"ball\(100\): the mesh does not fit in memory"):
+        meshes.ball(100)
+    assert meshes.cube(np.int64(2))[1].shape == (48, 4)   # NumPy integers are integers

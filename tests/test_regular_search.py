@@ -28,7 +28,7 @@ def test_the_core_search_reaches_its_floors_the_same_on_any_thread_count():
     floors, aims = search._aims(problem, sign, 1e-3)
     bound = np.full(problem.n, 10.0)
     runs = [_core.regular_search(problem.core_rows, (floors, aims, -bound, bound),
-                                 np.zeros(problem.n), 5000, options={"threads": k})
+                                 np.zeros(problem.n), (5000, None), options={"threads": k})
             for k in (1, 2, 3)]
     u, stop, iterations, short, y = runs[0]
     assert stop == "done" and (problem.margins(u) >= floors).all() and len(short) == 0
@@ -37,7 +37,7 @@ def test_the_core_search_reaches_its_floors_the_same_on_any_thread_count():
         assert other[1:3] == (stop, iterations)
     # an iteration budget is a budget
     u, stop, iterations, short, y = _core.regular_search(
-        problem.core_rows, (floors, aims, -bound, bound), np.zeros(problem.n), 3)
+        problem.core_rows, (floors, aims, -bound, bound), np.zeros(problem.n), (3, None))
     assert (stop, iterations) == ("iterations", 3) and len(short) > 0 and (y > 0).all()
 
 

@@ -71,7 +71,12 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    """The public names, the public submodules imported so far and the module's dunders:
+    not the helpers of this file (``importlib``, ``TYPE_CHECKING``, ``annotations``)."""
+    submodules = {name for name, value in globals().items() if not name.startswith("_")
+                  and getattr(value, "__name__", None) == f"{__name__}.{name}"}
+    dunders = {name for name in globals() if name.startswith("__") and name.endswith("__")}
+    return sorted(set(__all__) | submodules | dunders)
 
 
 if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, imported eagerly

@@ -111,7 +111,10 @@ def elements(T, n_columns=(3, 4)) -> np.ndarray:
         )
     if arr.ndim != 2 or arr.shape[1] not in n_columns:
         shapes = " or ".join(f"(m, {k})" for k in n_columns)
-        raise ShapeError(f"T must have shape {shapes}, got {arr.shape}")
+        why = (": triangles, and this function needs tets (laplacian, mass, operators, the "
+               "other assembly functions, Mesh and gradient take triangles too)"
+               if n_columns == (4,) and arr.ndim == 2 and arr.shape[1] == 3 else "")
+        raise ShapeError(f"T must have shape {shapes}, got {arr.shape}{why}")
     if arr.dtype == np.uint64 and arr.max() > _I64_MAX:
         flat = int(np.argmax(arr.ravel() > _I64_MAX))
         bad = int(arr.ravel()[flat])
@@ -217,10 +220,39 @@ def vector(x, n: int, name: str) -> np.ndarray:
     return arr
 
 
+def not_a_vertex(what: str, index: int, n: int) -> IndexRangeError:
+    """The error for ``index`` outside ``0..n-1`` (``what``: "sources holds"), the range
+    said as people read it ("0..64" read as 65 indices for 64 vertices)."""
+    known = f"there are {n} vertices, 0 to {n - 1}" if n else "there are no vertices"
+    return IndexRangeError(f"{what} {index}, not a vertex: {known}", index=int(index))
+
+
+def vertex_mask(given, n: int, name: str) -> np.ndarray:
+    """``given``, a boolean mask ``(n,)`` or integer vertex indices (``[]``: none), as a new
+    ``(n,)`` bool mask."""
+    arr = _as_array(given, name)
+    if arr.dtype == bool:
+        if arr.shape != (n,):
+            raise ShapeError(f"a boolean `{name}` must have shape ({n},), got {arr.shape}")
+        return arr.copy()
+    out = np.zeros(n, dtype=bool)
+    if arr.size == 0:        # [] is a float array to NumPy: no vertex, not a DtypeError
+        return out
+    if arr.dtype.kind not in "iu":
+        raise DtypeError(f"`{name}` must be a boolean mask or integer vertex indices, got "
+                         f"dtype {arr.dtype}")
+    flat = arr.ravel()
+    bad = (flat < 0) | (flat >= n)
+    if bad.any():
+        raise not_a_vertex(f"`{name}` holds", int(flat[np.argmax(bad)]), n)
+    out[flat] = True
+    return out
+
+
 def vertex_index(v, n: int, name: str) -> int:
-    """``v`` (an option naming a vertex) as a vertex index in ``0..n``."""
+    """``v`` (an option naming a vertex) as a vertex index in ``0..n-1``."""
     if not isinstance(v, numbers.Integral) or isinstance(v, bool):
         raise OptionError(f"{name} must be an integer vertex index, got {v!r}")
     if not 0 <= v < n:
-        raise IndexRangeError(f"{name} = {v} is not a vertex index in 0..{n}", index=int(v))
+        raise not_a_vertex(f"{name} =", v, n)
     return int(v)

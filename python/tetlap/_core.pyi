@@ -7,7 +7,7 @@
 # "fem"; anything else raises tetlap.OptionError.
 # Sparse outputs are CSR triples (data float64, indices uint32 (< 2^31), indptr
 # int32|int64); sparse inputs are (data float64, indices int64, indptr int64).
-from typing import Literal, final
+from typing import Literal, TypedDict, final
 
 import numpy as np
 import numpy.typing as npt
@@ -49,8 +49,12 @@ _SparseCot = tuple[Literal["matrix"], _CsrInput]
 _LapCot = tuple[Literal["elements", "quadratic"], _F64] | _SparseCot
 _MassCot = tuple[Literal["diagonal", "quadratic"], _F64] | _SparseCot
 
-def vjp(points: _F64, cells: _Cells, laplacian: _Kind | None, mass: str | None, *,
-        dl: _LapCot | None = None, dm: _MassCot | None = None, weights: _F64 | None = None,
+# cotangents: {"laplacian": (kind | None, _LapCot | None), "mass": (mass kind | None,
+# _MassCot | None)}, either key optional; a None cotangent is no term.
+class _Cotangents(TypedDict, total=False):
+    laplacian: tuple[_Kind | None, _LapCot | None]
+    mass: tuple[str | None, _MassCot | None]
+def vjp(points: _F64, cells: _Cells, cotangents: _Cotangents, *, weights: _F64 | None = None,
         options: _Options = None) -> tuple[_F64, _F64 | None, float]: ...
 
 # (g, vol): barycentric-coordinate gradients (m, 4 | 3, d) and element measures (m,).
@@ -110,25 +114,25 @@ def element_certificate(cells: _Cells, n: int, weights: _F64, tol: _F64, *,
                         ) -> tuple[Literal[True] | None, str, dict[str, int | float]]: ...
 
 # Regular weights (tetlap.regular): rows = (vertices (c, 5) int64, g0 (c,), coefficients
-# (c, 5)); targets = (floor (c,), aim (c,), lo (n,), hi (n,)); budgets are iterations,
-# seconds an optional wall-clock limit. regular_conditions returns a dict: "interior" (f, 4),
+# (c, 5)); targets = (floor (c,), aim (c,), lo (n,), hi (n,)); a budget is (iterations,
+# seconds or None), seconds an optional wall-clock limit. regular_conditions returns a dict: "interior" (f, 4),
 # "boundary" (b, 2), "nonmanifold" (k, 3) int64 (see faces); "vertices" (c, 5) int64, "g0"
 # (c,), "coefficients" (c, 5), "face" (c,) int64 (the margin rows); "folded" (f,) bool;
 # "flat" (k,) int64 (faces with a tet flat to rounding).
 _Rows = tuple[_I64, _F64, _F64]
 _Targets = tuple[_F64, _F64, _F64, _F64]
 _Stop = Literal["done", "stalled", "iterations", "deadline"]
+_Budget = tuple[int, float | None]
 
 def regular_conditions(points: _F64, cells: _Cells, *, options: _Options = None
                        ) -> dict[str, npt.NDArray[np.int64] | _F64 | npt.NDArray[np.bool_]]: ...
 # -> (u (n,), stop, iterations, short rows (k,) int64 largest shortfall first, their
 # multipliers (k,))
-def regular_search(rows: _Rows, targets: _Targets, u: _F64, iterations: int, *,
-                   seconds: float | None = None, options: _Options = None
-                   ) -> tuple[_F64, _Stop, int, _I64, _F64]: ...
-# masses = (plain circumcentric masses (n,), floor in [0, 1), u -> w scale (n,)); -> (u (n,),
-# {"rounds", "iterations", "kept", "lost", "deficit"})
-def regular_masses(points: _F64, cells: _Cells, rows: _Rows, targets: _Targets,
-                   masses: tuple[_F64, float, _F64], u: _F64, iterations: int, *,
-                   seconds: float | None = None, options: _Options = None
+def regular_search(rows: _Rows, targets: _Targets, u: _F64, budget: _Budget, *,
+                   options: _Options = None) -> tuple[_F64, _Stop, int, _I64, _F64]: ...
+# problem = (rows, targets, masses), masses = (plain circumcentric masses (n,), floor in
+# [0, 1), u -> w scale (n,)); -> (u (n,), {"rounds", "iterations", "kept", "lost", "deficit"})
+def regular_masses(points: _F64, cells: _Cells,
+                   problem: tuple[_Rows, _Targets, tuple[_F64, float, _F64]], u: _F64,
+                   budget: _Budget, *, options: _Options = None
                    ) -> tuple[_F64, dict[str, int | float]]: ...

@@ -57,7 +57,9 @@ degenerate : {"raise", "skip"}, default "raise"
     :class:`tetlap.DegenerateElementError` naming it, or with ``"skip"`` contributes
     nothing (its edges stay in the pattern).
 threads : int, optional
-    Worker threads, from 1 to ``tetlap.MAX_THREADS`` (four per core); ``None`` uses all
+    Worker threads, from 1 to ``tetlap.MAX_THREADS`` (four per core); ``None`` uses
+    ``RAYON_NUM_THREADS`` if it is set (0 means all cores; a value outside 0 to
+    ``MAX_THREADS`` is an :class:`tetlap.OptionError`, as for ``threads``), else all
     cores. The output is bitwise identical for any value.""",
     "dual_mesh": """\
 V : (n, d) array-like of real numbers

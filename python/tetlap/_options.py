@@ -22,7 +22,7 @@ import numbers
 from .errors import OptionError
 
 __all__ = ["positive", "non_negative", "tolerance", "finite", "count", "threads", "at_most",
-           "MAX_SECONDS"]
+           "at_least", "MAX_SECONDS"]
 
 
 def _real(value) -> bool:
@@ -77,8 +77,9 @@ def threads(value, name: str = "threads"):
 
     try:
         _core.check_options({"threads": value})
-    except OptionError as e:
-        raise OptionError(str(e) if name == "threads" else f"{name}: {e}") from None
+    except OptionError as e:  # None: the environment's count, named by the message
+        raise OptionError(str(e) if name == "threads" or value is None
+                          else f"{name}: {e}") from None
     return value
 
 
@@ -92,4 +93,12 @@ def at_most(value, most, name: str):
     whose larger values overflow a timer or a float, or repeat work for ever."""
     if value > most:
         raise OptionError(f"{name} must be at most {most:g}")
+    return value
+
+
+def at_least(value, least, name: str):
+    """``value`` (a number, already checked) if it is at least ``least``: for the sizes
+    whose smaller values ask for more work or memory than any machine has."""
+    if value < least:
+        raise OptionError(f"{name} must be at least {least:g}")
     return value

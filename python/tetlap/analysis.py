@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import warnings
 
 import numpy as np
 import scipy.sparse as sp
@@ -46,11 +47,13 @@ class Report:
 
     Every quantity is a plain Python number (or None when it does not apply, with the
     reason in ``notes``); the ``*_ok`` flags compare them with the documented tolerances.
-    ``nsd_min_eigenvalue`` is the smallest eigenvalue of ``-L`` (dense route) or, for an
-    indefinite ``L``, the Rayleigh quotient of the witness (an upper bound on it).
-    Vertices in no tet take no part: ``nsd_min_eigenvalue`` is that of ``-L`` without their
-    empty rows, ``mass_min`` and ``mass_nonpositive`` are over the vertices in tets, and
-    the linear-precision residual is relative to the diameter of those.
+    ``nsd_min_eigenvalue_upper_bound`` is an upper bound on the smallest eigenvalue of
+    ``-L``: that eigenvalue itself (to rounding) when dense eigenvalues decided, the
+    Rayleigh quotient of the witness (negative: ``L`` is not NSD) when a witness did, else
+    None. (Called ``nsd_min_eigenvalue`` until 0.1; that name reads it, deprecated.)
+    Vertices in no tet take no part: the eigenvalue is that of ``-L`` without their empty
+    rows, ``mass_min`` and ``mass_nonpositive`` are over the vertices in tets, and the
+    linear-precision residual is relative to the diameter of those.
     """
 
     n_vertices: int
@@ -64,7 +67,7 @@ class Report:
     linear_precision_residual: float | None
     linear_precision_ok: bool | None
     nsd: bool | None
-    nsd_min_eigenvalue: float | None
+    nsd_min_eigenvalue_upper_bound: float | None
     nsd_method: str
     min_weight: float
     n_edges: int
@@ -84,6 +87,15 @@ class Report:
         """A JSON-serialisable dict of every field."""
         return dataclasses.asdict(self)
 
+    @property
+    def nsd_min_eigenvalue(self) -> float | None:
+        """Deprecated: :attr:`nsd_min_eigenvalue_upper_bound`, its name until 0.1 (a
+        witness's Rayleigh quotient is only an upper bound on the eigenvalue)."""
+        warnings.warn("Report.nsd_min_eigenvalue is nsd_min_eigenvalue_upper_bound (an upper "
+                      "bound, not the eigenvalue, when a witness decided)", DeprecationWarning,
+                      stacklevel=2)
+        return self.nsd_min_eigenvalue_upper_bound
+
     def rows(self) -> list[tuple[str, bool | None, str]]:
         """The table's rows: ``(property, passed, numbers)``; with a NaN or Inf in ``L``
         only finiteness and locality are decided (the other rows are ``None``)."""
@@ -96,7 +108,8 @@ class Report:
             ("linear precision (interior)", self.linear_precision_ok,
              _fmt(self.linear_precision_residual, "relative residual {:.2e}")),
             ("negative semidefinite", self.nsd,
-             _fmt(self.nsd_min_eigenvalue, "min eig(-L) {:.3e} ") + f"[{self.nsd_method}]"),
+             _fmt(self.nsd_min_eigenvalue_upper_bound, "min eig(-L) <= {:.3e} ")
+             + f"[{self.nsd_method}]"),
             ("non-negative weights", numeric(self.n_negative == 0),
              f"{self.n_negative}/{self.n_edges} negative ({100 * self.negative_fraction:.2f}%), "
              f"min w = {self.min_weight:.3e}"),
@@ -275,7 +288,7 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
         linear_precision_residual=lp,
         linear_precision_ok=None if lp is None else decided(lp < TOL),
         nsd=nsd_ok,
-        nsd_min_eigenvalue=min_eig,
+        nsd_min_eigenvalue_upper_bound=min_eig,
         nsd_method=method,
         min_weight=c["min_weight"],
         n_edges=edges,

@@ -32,6 +32,12 @@ from .info import report
 from .mesh import Mesh
 from .analysis import check
 
+#: The version of the layout of ``tetlap bench --json`` (:func:`document`), its first key;
+#: raised with every change of it or of the records' keys, each in the CHANGELOG. 1: one
+#: object ``{"schema_version", "benchmark": "assembly" | "solve", "records"}`` (before:
+#: the bare list of records).
+SCHEMA_VERSION = 1
+
 # Kuhn grids: 6 k^3 tets.
 SIZES = {"10k": 12, "100k": 26, "1M": 55, "4M": 87}
 #: Tets per point of the Delaunay tetrahedralisation of uniform points in a cube.
@@ -201,6 +207,14 @@ def time_mesh(label: str, V, T, threads=None, repeat: int = 5, only=None,
         "igl_cotmatrix_over_this": (medians["igl.cotmatrix"] / t
                                     if "igl.cotmatrix" in medians else None),
     } for name, t in medians.items()]
+
+
+def document(benchmark: str, records: list[dict]) -> dict:
+    """The JSON document of ``tetlap bench --json``: ``{"schema_version":``
+    :data:`SCHEMA_VERSION` ``, "benchmark": benchmark, "records": records}``, ``benchmark``
+    "assembly" (records of :func:`time_mesh`) or "solve" (of
+    :func:`tetlap.benchmark_solve.run`)."""
+    return {"schema_version": SCHEMA_VERSION, "benchmark": benchmark, "records": records}
 
 
 def run(kinds=KINDS, sizes=("100k",), files=(), threads=None, repeat=5, only=None,

@@ -74,7 +74,7 @@ def run_case(case: str, path: str) -> dict:
     data = np.load(path)
     V, T = data["V"], data["T"]
     assembly = sorted(_timed(lambda: tetlap.laplacian(V, T, "primal"))[1] for _ in range(3))[1]
-    fixed = tetlap.diagnostics.boundary_vertices(T, len(V))
+    fixed = tetlap.diagnostics.boundary_vertices(V, T)
     values = V[:, 0] ** 2 - V[:, 1]
     out: dict = {"assembly_s": assembly}
     kind = "dual" if case == "dirichlet dual" else "primal"

@@ -165,7 +165,7 @@ def divergence(V, T=None, *, degenerate="raise", threads=None) -> sp.csr_array:
     >>> V, T = tetlap.meshes.cube(2)
     >>> D = tetlap.divergence(V, T)
     >>> X = np.tile([1.0, 0.0, 0.0], len(T))     # a constant field: divergence 0 inside
-    >>> bool(abs(D @ X)[tetlap.diagnostics.interior_vertices(T, len(V))].max() < 1e-15)
+    >>> bool(abs(D @ X)[tetlap.diagnostics.interior_vertices(V, T)].max() < 1e-15)
     True
     """
     V, T = _arrays.mesh(V, T)

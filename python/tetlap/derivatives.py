@@ -185,8 +185,8 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     n, m = V.shape[0], T.shape[0]
     dl = _laplacian_cotangent(dL, n, m)
     dm = _mass_cotangent(dM, n)
-    dV, dweights, value = _core.vjp(V, T, kind, mass, dl=dl, dm=dm, weights=w,
-                                    options=_options(boundary, degenerate, threads))
+    dV, dweights, value = _core.vjp(V, T, {"laplacian": (kind, dl), "mass": (mass, dm)},
+                                    weights=w, options=_options(boundary, degenerate, threads))
     return VJP(dV, dweights, float(value))
 
 
@@ -203,10 +203,10 @@ def _columns(f, n: int) -> np.ndarray:
 def _energy(V, T, f, lap, mass, weights, boundary, degenerate, threads, return_weights_gradient):
     V, T, w = _mesh(V, T, weights)
     F = _columns(f, V.shape[0])
+    terms = {"laplacian": lap, "mass": mass}
     dV, dweights, value = _core.vjp(
-        V, T, lap, mass, dl=("quadratic", F) if lap is not None else None,
-        dm=("quadratic", F) if mass is not None else None, weights=w,
-        options=_options(boundary, degenerate, threads))
+        V, T, {name: (kind, ("quadratic", F)) for name, kind in terms.items() if kind is not None},
+        weights=w, options=_options(boundary, degenerate, threads))
     if return_weights_gradient:
         if dweights is None:
             dweights = np.zeros(V.shape[0])

@@ -5,19 +5,22 @@ Every function is computed by the parallel Rust core in ``O(m)`` (faces are matc
 counting sort on their smallest vertex, not by a global sort), answers Ctrl-C, validates
 its input like :func:`tetlap.laplacian` and never modifies it. ``T`` is an (m, 4) integer
 array of tets in any orientation; where geometry is involved, ``V`` is (n, 3) (the
-dihedral angles, volumes and well-centredness also work for tets immersed in R^d). One
-mesh object (meshio, PyVista, ...) may stand for ``T`` or, with ``T`` left out, for
-``(V, T)``.
+dihedral angles, volumes and well-centredness also work for tets immersed in R^d). Every
+function takes ``(V, T)`` or one mesh object (meshio, PyVista, ...); the ones that need no
+coordinates (faces, vertex masks, edges, duplicates) also take ``T`` alone, and the vertex
+masks ``(T, n)`` (``n`` vertices), their older form.
 
 Example
 -------
 >>> import tetlap
 >>> V, T = tetlap.meshes.cube(2)
->>> tetlap.diagnostics.boundary_faces(T).shape, int(tetlap.diagnostics.interior_vertices(T).sum())
+>>> tetlap.diagnostics.boundary_faces(V, T).shape, int(tetlap.diagnostics.interior_vertices(V, T).sum())
 ((48, 3), 1)
 """
 
 from __future__ import annotations
+
+import numbers
 
 import numpy as np
 
@@ -55,45 +58,55 @@ DELAUNAY_RTOL = _core.DELAUNAY_RTOL
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
 
 
-def _vertex_count(T: np.ndarray, n: int | None) -> int:
-    needed = int(T.max()) + 1
-    if n is None:
-        return needed
-    return int(_options.count(n, "n", needed))  # every index of T below n
+def _topology(first, second=None, n=None, n_columns=4) -> tuple[np.ndarray, int]:
+    """``(T, n)``: the elements (``(m, k)`` int64, ``k`` in ``n_columns``) and the vertex
+    count of ``(V, T)``, of one mesh object, of ``T`` alone (``n = T.max() + 1``) or of
+    ``(T, n)`` (``n`` positional or keyword, an integer at least ``T.max() + 1``); errors
+    name the argument at fault."""
+    if _meshobj.is_mesh_object(first):
+        if second is not None or n is not None:
+            raise TypeError("a mesh object carries its cells and vertices; pass it alone")
+        V, T = _meshobj.to_arrays(first, stacklevel=4)
+        return _arrays.elements(T, n_columns), len(V)
+    if second is not None and np.ndim(second) == 0:  # (T, n), the older form
+        if n is not None:
+            raise TypeError("n is given twice")
+        second, n = None, second
+    if second is None:
+        T = _arrays.elements(first, n_columns)
+        needed = int(T.max()) + 1
+        n = needed if n is None else int(_options.count(n, "n", needed))  # T's indices < n
+        _arrays.in_range(T, n, "element")                                  # and >= 0
+        return T, n
+    if n is not None:
+        raise TypeError("n goes with (T, n): (V, T) has len(V) vertices")
+    n = len(_arrays.points(first))
+    T = _arrays.elements(second, n_columns)
+    _arrays.in_range(T, n, "element")
+    return T, n
 
 
-def _tets(T) -> np.ndarray:
-    """``T`` (or the tets of a mesh object) as (m, 4) int64."""
-    if _meshobj.is_mesh_object(T):
-        T = _meshobj.to_arrays(T, stacklevel=4)[1]
-    return _arrays.elements(T, 4)
-
-
-def _face_sets(T, n=None):
-    T = _tets(T)
-    return T, _core.faces(T, _vertex_count(T, n))
-
-
-def faces(T) -> np.ndarray:
+def faces(V, T=None) -> np.ndarray:
     """All 4 m faces of the tets, (4 m, 3) int64; row ``4 t + c`` is the face opposite
     corner ``c`` of tet ``t``, oriented outward for a positively oriented tet."""
-    T = _tets(T)
+    T, _ = _topology(V, T)
     return T[:, _FACES].reshape(-1, 3)
 
 
-def boundary_faces(T, *, return_tets: bool = False):
+def boundary_faces(V, T=None, *, return_tets: bool = False):
     """Faces that belong to exactly one tet, (f, 3) int64, oriented like their tet (outward
     for positively oriented tets), in the order of their tets.
 
     With ``return_tets=True`` also the tet of every face (f,) and the corner of that tet
     opposite the face (f,).
     """
-    T, (boundary, _, _) = _face_sets(T)
+    T, n = _topology(V, T)
+    boundary = _core.faces(T, n)[0]
     F = T[boundary[:, 0][:, None], _FACES[boundary[:, 1]]]
     return (F, boundary[:, 0], boundary[:, 1]) if return_tets else F
 
 
-def interior_faces(T):
+def interior_faces(V, T=None):
     """Faces shared by two tets.
 
     Returns
@@ -107,52 +120,66 @@ def interior_faces(T):
     more than two tets (non-manifold) is reported once per pair of consecutive tets
     (ordered by tet index).
     """
-    T, (_, interior, _) = _face_sets(T)
+    T, n = _topology(V, T)
+    interior = _core.faces(T, n)[1]
     tets = interior[:, [0, 2]]
     opposite = np.column_stack([T[interior[:, 0], interior[:, 1]], T[interior[:, 2], interior[:, 3]]])
     return tets, opposite
 
 
-def nonmanifold_faces(T) -> np.ndarray:
+def nonmanifold_faces(V, T=None) -> np.ndarray:
     """Faces shared by more than two tets, (k, 3) int64 sorted vertex triples, ascending."""
-    return _face_sets(T)[1][2]
+    return _core.faces(*_topology(V, T))[2]
 
 
-def boundary_vertices(T, n: int | None = None) -> np.ndarray:
-    """Boolean mask (n,) of the vertices on a boundary face (``n`` defaults to
-    ``T.max() + 1``)."""
-    T, (boundary, _, _) = _face_sets(T, n)
-    mask = np.zeros(_vertex_count(T, n), dtype=bool)
+def _on_boundary(T: np.ndarray, n: int) -> np.ndarray:
+    boundary = _core.faces(T, n)[0]
+    mask = np.zeros(n, dtype=bool)
     mask[T[boundary[:, 0][:, None], _FACES[boundary[:, 1]]].ravel()] = True
     return mask
 
 
-def referenced_vertices(T, n: int | None = None) -> np.ndarray:
-    """Boolean mask (n,) of the vertices that belong to at least one tet."""
-    T = _tets(T)
-    mask = np.zeros(_vertex_count(T, n), dtype=bool)
+def _referenced(T: np.ndarray, n: int) -> np.ndarray:
+    mask = np.zeros(n, dtype=bool)
     mask[T.ravel()] = True
     return mask
 
 
-def interior_vertices(T, n: int | None = None) -> np.ndarray:
-    """Boolean mask (n,) of referenced vertices not on the boundary."""
-    return referenced_vertices(T, n) & ~boundary_vertices(T, n)
+def boundary_vertices(V, T=None, *, n=None) -> np.ndarray:
+    """Boolean mask (n,) of the vertices on a boundary face, for ``(V, T)`` (n = len(V)),
+    a mesh object, or ``(T, n)`` / ``T`` alone (``n``, also by keyword, defaults to
+    ``T.max() + 1``).
+
+    >>> import tetlap
+    >>> V, T = tetlap.meshes.cube(2)
+    >>> int(tetlap.diagnostics.boundary_vertices(V, T).sum())
+    26
+    """
+    return _on_boundary(*_topology(V, T, n))
 
 
-def mesh_edges(T) -> np.ndarray:
+def referenced_vertices(V, T=None, *, n=None) -> np.ndarray:
+    """Boolean mask (n,) of the vertices that belong to at least one tet (arguments as
+    :func:`boundary_vertices`)."""
+    return _referenced(*_topology(V, T, n))
+
+
+def interior_vertices(V, T=None, *, n=None) -> np.ndarray:
+    """Boolean mask (n,) of referenced vertices not on the boundary (arguments as
+    :func:`boundary_vertices`)."""
+    T, n = _topology(V, T, n)
+    return _referenced(T, n) & ~_on_boundary(T, n)
+
+
+def mesh_edges(V, T=None) -> np.ndarray:
     """Unique edges, (E, 2) int64 with ``i < j``, sorted lexicographically (tets or
     triangles)."""
-    if _meshobj.is_mesh_object(T):
-        T = _meshobj.to_arrays(T, stacklevel=3)[1]
-    T = _arrays.elements(T)
-    return _core.edges(T, _vertex_count(T, None))
+    return _core.edges(*_topology(V, T, n_columns=(3, 4)))
 
 
-def duplicate_tets(T) -> np.ndarray:
+def duplicate_tets(V, T=None) -> np.ndarray:
     """Boolean (m,): tets whose vertex set appeared in an earlier row (any order)."""
-    T = _tets(T)
-    return _core.duplicates(T, _vertex_count(T, None))
+    return _core.duplicates(*_topology(V, T))
 
 
 def _geometry(V, T):
@@ -215,7 +242,7 @@ def non_delaunay_faces(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     symmetric in the two tets. R^3 only. ``rtol``: a relative tolerance in [0, 1)."""
     _options.tolerance(rtol, "rtol")
     V, T = _geometry(V, T)
-    T, (_, interior, _) = _face_sets(T, len(V))
+    interior = _core.faces(T, len(V))[1]
     return _core.non_delaunay(V, T, interior, float(rtol))
 
 
@@ -226,7 +253,7 @@ def non_delaunay_tets(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     :func:`non_delaunay_faces`."""
     _options.tolerance(rtol, "rtol")
     V, T = _geometry(V, T)
-    T, (_, interior, _) = _face_sets(T, len(V))
+    interior = _core.faces(T, len(V))[1]
     flags = _core.non_delaunay(V, T, interior, float(rtol))
     bad = np.zeros(len(T), dtype=bool)
     bad[interior[flags][:, [0, 2]].ravel()] = True
@@ -267,8 +294,7 @@ def _summary(V, T, rtol: float = DELAUNAY_RTOL) -> tuple[dict, np.ndarray]:
     volume, dihedral, well = _core.quality(V, T)
     on_boundary = np.zeros(n, dtype=bool)
     on_boundary[T[boundary[:, 0][:, None], _FACES[boundary[:, 1]]].ravel()] = True
-    referenced = np.zeros(n, dtype=bool)
-    referenced[T.ravel()] = True
+    referenced = _referenced(T, n)
     flat = np.abs(volume) <= 1e-12 * np.abs(volume).mean()
     result = {
         "n_vertices": n,

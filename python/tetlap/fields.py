@@ -19,7 +19,7 @@ the primal where its cotangent weights happen to be non-negative (acute dihedral
 
 >>> import numpy as np, tetlap
 >>> V, T = tetlap.meshes.ball(500, seed=0)
->>> fixed = tetlap.diagnostics.boundary_vertices(T, len(V))
+>>> fixed = tetlap.diagnostics.boundary_vertices(V, T)
 >>> r = tetlap.harmonic(V, T, fixed, V[fixed, 0] > 0)      # 1 on one half, 0 on the other
 >>> r.laplacian, r.proved, r.out_of_range
 ('dual', True, 0)
@@ -35,8 +35,7 @@ from scipy.sparse import csgraph
 
 from . import _arrays, _core, _options, analysis, assembly
 from .solve import factorize
-from .errors import (DtypeError, IndexRangeError, NonFiniteError, OptionError, ShapeError,
-                     SolveError)
+from .errors import DtypeError, NonFiniteError, OptionError, ShapeError, SolveError
 
 __all__ = ["harmonic", "Harmonic", "RANGE_RTOL", "maximum_principle"]
 
@@ -79,7 +78,7 @@ def _fixed(fixed, values, n: int) -> tuple[np.ndarray, np.ndarray]:
     elif f.dtype.kind in "iu" and f.ndim == 1:
         if f.size and (f.min() < 0 or f.max() >= n):
             bad = int(f[(f < 0) | (f >= n)][0])
-            raise IndexRangeError(f"fixed holds {bad}, not a vertex in 0..{n}", index=bad)
+            raise _arrays.not_a_vertex("fixed holds", bad, n)
         idx = f.astype(np.int64)
         if len(np.unique(idx)) != len(idx):
             raise OptionError("fixed holds a vertex twice")
@@ -108,7 +107,7 @@ def maximum_principle(L, fixed: np.ndarray, used: np.ndarray) -> tuple[sp.csr_ar
 
     >>> import tetlap, numpy as np
     >>> V, T = tetlap.meshes.cube(3)
-    >>> fixed = np.zeros(len(V), bool); fixed[tetlap.diagnostics.boundary_vertices(T, len(V))] = True
+    >>> fixed = np.zeros(len(V), bool); fixed[tetlap.diagnostics.boundary_vertices(V, T)] = True
     >>> maximum_principle(tetlap.laplacian(V, T, "dual"), fixed, np.ones(len(V), bool))[1:]
     (True, 'every weight at a free vertex is >= 0 and every free vertex reaches a fixed one through positive weights')
     """
@@ -216,7 +215,7 @@ def harmonic(V, T=None, fixed=None, values=None, *, k: int = 1, laplacian="auto"
     --------
     >>> import numpy as np, tetlap
     >>> V, T = tetlap.meshes.cube(4)
-    >>> fixed = tetlap.diagnostics.boundary_vertices(T, len(V))
+    >>> fixed = tetlap.diagnostics.boundary_vertices(V, T)
     >>> r = tetlap.harmonic(V, T, fixed, np.stack([V[fixed, 0], V[fixed, 1] ** 2], 1))
     >>> r.field.shape, bool(np.allclose(r.field[:, 0], V[:, 0]))    # linear: reproduced
     ((125, 2), True)

@@ -61,13 +61,11 @@ def _sources(sources, n: int, used: np.ndarray) -> np.ndarray:
         if arr.ndim != 1:
             raise ShapeError(f"sources must be one index or a 1-D array, got shape {arr.shape}")
         if arr.dtype == np.uint64 and arr.max() >= n:
-            raise IndexRangeError(f"sources holds {int(arr.max())}, not a vertex in 0..{n}",
-                                  index=int(arr.max()))
+            raise _arrays.not_a_vertex("sources holds", int(arr.max()), n)
         s = np.unique(arr.astype(np.int64))
     bad = s[(s < 0) | (s >= n)]
     if bad.size:
-        raise IndexRangeError(f"sources holds {int(bad[0])}, not a vertex in 0..{n}",
-                              index=int(bad[0]))
+        raise _arrays.not_a_vertex("sources holds", int(bad[0]), n)
     unused = s[~used[s]]
     if unused.size:
         raise IndexRangeError(f"source {int(unused[0])} is in no element of the mesh",

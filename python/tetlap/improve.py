@@ -79,7 +79,7 @@ def dual_statistics(V, T) -> dict:
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
     edges, w = assembly.edge_weights(V, T, "dual", degenerate="skip")
-    on_boundary = diagnostics.boundary_vertices(T, len(V))
+    on_boundary = diagnostics.boundary_vertices(V, T)
     inner = ~(on_boundary[edges[:, 0]] & on_boundary[edges[:, 1]])
     L = assembly.laplacian(V, T, "dual", degenerate="skip")
     vol = np.abs(diagnostics.signed_volumes(V, T))
@@ -298,9 +298,9 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
         Vertex positions (never modified).
     T : (m, 4) array-like of integers
         Tets, any orientation (each keeps its own).
-    fixed : (n,) bool array-like, optional
+    fixed : (n,) bool mask or integer vertex indices, optional
         Vertices that must not move, besides the boundary (e.g. vertices on an interior
-        interface).
+        interface); ``[]`` is none.
     margin : float in [0, 1e6], default 0.02
         ``delta``: weights below ``delta h`` are penalised (``h`` the mean edge length);
         at most :data:`MAX_MARGIN`.
@@ -328,8 +328,9 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
     ------
     OptionError
         An option outside its range (NaN and infinities included), before any work.
-    ShapeError
-        Points not in R^3, or ``fixed`` of the wrong shape.
+    ShapeError, DtypeError, IndexRangeError
+        Points not in R^3, or a ``fixed`` mask of the wrong shape, of the wrong type or
+        naming a vertex the mesh does not have.
     DegenerateElementError
         A tet whose volume leaves the float64 range (see the module docs).
 
@@ -347,12 +348,7 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
     if V0.shape[1] != 3:
         raise ShapeError(f"improve needs points in R^3, got dimension {V0.shape[1]}")
     n = len(V0)
-    if fixed is None:
-        fixed = np.zeros(n, dtype=bool)
-    else:
-        fixed = np.asarray(fixed, dtype=bool)
-        if fixed.shape != (n,):
-            raise ShapeError(f"fixed must have shape ({n},), got {fixed.shape}")
+    fixed = _arrays.vertex_mask([] if fixed is None else fixed, n, "fixed")
     check_float_range(V0, T)
     before = dual_statistics(V0, T)
     # vertices in no tet take no part (they stay where they are)

@@ -17,7 +17,7 @@ Example
 >>> import tetlap
 >>> r = tetlap.info.report(*tetlap.meshes.cube(3))
 >>> r["schema_version"], r["mesh"]["n_tets"], r["primal"]["nsd"], r["dual"]["n_negative_interior"]
-(2, 162, True, 0)
+(3, 162, True, 0)
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _arrays, _options, assembly, diagnostics
+from . import _arrays, _extras, _options, assembly, diagnostics
 from ._float_range import check_float_range
 from ._progress import Stages
 from .errors import ShapeError, TetlapError
@@ -38,8 +38,10 @@ __all__ = ["report", "regular_summary", "plot", "plot_names", "PAIRS", "SCHEMA_V
 #: The version of the report's layout (its keys and their meaning), the first key of
 #: ``tetlap info --json``; raised with every change, each recorded in the CHANGELOG.
 #: 1: the counts at the top level, ``negative_weight_fraction_interior``; 2: the counts
-#: under ``"mesh"``, ``negative_fraction_interior``, ``schema_version`` itself.
-SCHEMA_VERSION = 2
+#: under ``"mesh"``, ``negative_fraction_interior``, ``schema_version`` itself; 3:
+#: ``nsd_min_eigenvalue`` renamed ``nsd_min_eigenvalue_upper_bound`` (a witness's
+#: Rayleigh quotient is an upper bound, not the eigenvalue).
+SCHEMA_VERSION = 3
 
 #: The operators of the report: (Laplacian kind, mass kind).
 PAIRS = (("primal", "barycentric"), ("dual", "circumcentric"))
@@ -234,7 +236,7 @@ def pyplot():
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        raise ImportError("info plots need matplotlib: pip install 'tetlap[experiments]'") from None
+        raise ImportError(f"info plots need matplotlib: {_extras.hint('experiments')}") from None
     return plt
 
 
@@ -259,6 +261,30 @@ def spread_bins(values, per_decade: int = 8):
     return np.concatenate([-outer[::-1], outer]), threshold
 
 
+def spread_ticks(values, bins, threshold: float) -> tuple[list[float], list[str]]:
+    """The ticks and labels of a :func:`spread_bins` axis: at most three decades a side
+    (none within a decade of the linear part), a side without values left out, and always
+    ``-threshold``, ``0`` and ``threshold`` (labelled ``-t``, ``0``, ``t``), the bounds of
+    the one linear bin around 0; :func:`plot` gives ``t`` in the axis label.
+
+    >>> values = [-1.0, 0.5, 2.0, 1e3]
+    >>> ticks, labels = spread_ticks(values, *spread_bins(values))
+    >>> ticks[2:7], labels[2:7]
+    ([-0.1, -0.0015, 0.0, 0.0015, 0.1], ['$-10^{-1}$', '$-t$', '$0$', '$t$', '$10^{-1}$'])
+    """
+    values = np.asarray(values, dtype=np.float64)
+    low, high = np.log10(threshold), np.floor(np.log10(bins[-1]))
+    step = max(1, int(np.ceil((high - low - 1) / 3)))
+    decades = np.arange(high, low + 1, -step)
+    below, above = (values < -threshold).any(), (values > threshold).any()
+    left = [-float(10.0**k) for k in decades] if below else []
+    right = [float(10.0**k) for k in decades[::-1]] if above else []
+    ticks = left + [-float(threshold), 0.0, float(threshold)] + right
+    labels = ([f"$-10^{{{np.log10(-x):.0f}}}$" for x in left] + ["$-t$", "$0$", "$t$"]
+              + [f"$10^{{{np.log10(x):.0f}}}$" for x in right])
+    return ticks, labels
+
+
 def plot_names(name: str) -> list[str]:
     """The file names :func:`plot` writes for a mesh named ``name``.
 
@@ -275,8 +301,9 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     (created if needed); returns their paths. Titles name the mesh (a lone surrogate of
     ``name``, from a file name that is not UTF-8, escaped). Weights and masses are binned
     on symmetric log scales (:func:`spread_bins`), so that slivers' huge values do not
-    collapse the rest into one bar. Needs matplotlib (``pip install
-    'tetlap[experiments]'``), checked first.
+    collapse the rest into one bar; the linear bin around 0 is shaded, with 0 and its
+    bounds ``-t``, ``t`` labelled (:func:`spread_ticks`; ``t`` in the axis label). Needs matplotlib (``pip install
+    ".[experiments]"``), checked first.
 
     Example
     -------
@@ -304,26 +331,23 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
         plt.close(fig)
         paths.append(path)
 
-    def spread(ax, values, color):
+    def spread(ax, values, color, what):
         from matplotlib.ticker import NullLocator
 
         bins, threshold = spread_bins(values)
         ax.hist(values, bins=bins, color=color)
-        ax.set_xscale("symlog", linthresh=threshold)
+        ax.set_xscale("symlog", linthresh=threshold, linscale=1.5)
         ax.set_yscale("log")
+        # the one linear bin [-threshold, threshold] shaded, 0 (the black line) and its
+        # bounds labelled; a side without values shown only to -threshold
+        ax.axvspan(-threshold, threshold, color="0.9", zorder=0)
         ax.axvline(0, color="k", lw=0.8)
-        # at most three labelled decades a side, none within a decade of the linear part
-        # around 0 (the black line), and a side without values shown only to -threshold
-        low, high = np.log10(threshold), np.floor(np.log10(bins[-1]))
-        step = max(1, int(np.ceil((high - low - 1) / 3)))
-        decades = np.arange(high, low + 1, -step)
         below, above = (values < -threshold).any(), (values > threshold).any()
         ax.set_xlim(bins[0] if below else -threshold, bins[-1] if above else threshold)
-        ticks = ([-(10.0**k) for k in decades] if below else []) + (
-            [10.0**k for k in decades[::-1]] if above else [])
-        ax.set_xticks(ticks, [f"${'-' if t < 0 else ''}10^{{{np.log10(abs(t)):.0f}}}$"
-                              for t in ticks])
+        ax.set_xticks(*spread_ticks(values, bins, threshold))
         ax.xaxis.set_minor_locator(NullLocator())
+        ax.set_xlabel(f"{what} (symmetric log scale)\nshaded: one bin [-t, t], "
+                      f"t = {threshold:.1e}")
 
     angles = diagnostics.dihedral_angles(V, T).ravel()
     fig, ax = plt.subplots(figsize=(6, 4))
@@ -338,8 +362,7 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     for ax, kind in zip(axes, ("primal", "dual")):
         _, w = assembly.edge_weights(V, T, kind, degenerate="skip")
         negative = (w < 0).mean() if len(w) else 0.0
-        spread(ax, w, "tab:blue" if kind == "primal" else "tab:orange")
-        ax.set_xlabel("edge weight w_ij (symmetric log scale)")
+        spread(ax, w, "tab:blue" if kind == "primal" else "tab:orange", "edge weight w_ij")
         ax.set_ylabel("edges")
         ax.set_title(f"{kind} Laplacian: {100 * negative:.2f}% of the weights negative")
     fig.suptitle(f"{title}: edge weights of the two Laplacians")
@@ -348,8 +371,7 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     for ax, kind in zip(axes, ("barycentric", "circumcentric")):
         m = assembly.mass(V, T, kind, degenerate="skip").diagonal()
-        spread(ax, m, None)
-        ax.set_xlabel("vertex mass (symmetric log scale)")
+        spread(ax, m, None, "vertex mass")
         ax.set_ylabel("vertices")
         ax.set_title(f"{kind} mass: {int((m <= 0).sum())} of {len(m)} vertices with mass <= 0")
     fig.suptitle(f"{title}: lumped masses")

@@ -8,8 +8,8 @@ triangles. Writing: :func:`write` (a file), :func:`to_meshio`, :func:`to_pyvista
 :func:`edges_to_pyvista` (e.g. the negative-weight edges) for plotting; :func:`dual_cells`
 (the Voronoi / power cells as VTK polyhedra).
 
-Needs the optional dependencies ``meshio`` (``pip install 'tetlap[io]'``) for files and
-``pyvista`` (``pip install 'tetlap[pyvista]'``) for :func:`to_pyvista`.
+Needs the optional dependencies ``meshio`` (``pip install ".[io]"``) for files and
+``pyvista`` (``pip install ".[pyvista]"``) for :func:`to_pyvista`.
 
 Examples
 --------
@@ -26,12 +26,14 @@ from __future__ import annotations
 import contextlib
 import importlib
 import io as _stdio
+import mmap
 import os
+import re
 import sys
 
 import numpy as np
 
-from . import _arrays
+from . import _arrays, _extras
 from ._meshobj import is_mesh_object, to_arrays
 from .errors import MeshFileError, ShapeError
 
@@ -44,7 +46,7 @@ def _optional(module: str, extra: str, what: str):
     try:
         return importlib.import_module(module)
     except ImportError:  # pragma: no cover - exercised only without the extra
-        raise ImportError(f"{what} need {module}: pip install 'tetlap[{extra}]'") from None
+        raise ImportError(f"{what} need {module}: {_extras.hint(extra)}") from None
 
 
 def _meshio():
@@ -112,6 +114,43 @@ def from_mesh(obj, cell_type=None):
     return to_arrays(obj, cell_type, stacklevel=2)
 
 
+#: The keywords of the formats whose headers declare counts of records (the one or two
+#: numbers right after a keyword: ``$Nodes`` / ``n``, ``CELLS n size``); TetGen's counts
+#: open the file. Every record of these formats takes at least two bytes per count (a
+#: digit and a separator, or a binary number), so a count above half the file's size is a
+#: broken header: refused before meshio allocates it (a binary ``.msh`` that declares 2e8
+#: vertices made meshio build a 2e8-element array for 40 s).
+_COUNT_KEYWORDS = {
+    ".msh": (b"$Nodes", b"$Elements"),
+    ".mesh": (b"Vertices", b"Triangles", b"Tetrahedra"),
+    ".vtk": (b"POINTS", b"CELLS", b"CELL_TYPES"),
+    ".node": (b"",), ".ele": (b"",),
+}
+_COUNTS = re.compile(rb"\s*(\d+)(?:[ \t]+(\d+))?")
+
+
+def _check_declared_counts(path: str) -> None:
+    """MeshFileError if a count declared by ``path``'s header cannot fit in the file (and
+    for TetGen, in the ``.node`` / ``.ele`` file beside it)."""
+    stem, suffix = os.path.splitext(path)
+    paths = [path] + ([stem + ".node"] if suffix == ".ele" else [])
+    for p in paths:
+        keywords = _COUNT_KEYWORDS.get(os.path.splitext(p)[1].lower(), ())
+        if not keywords or not os.path.isfile(p) or not os.path.getsize(p):
+            continue
+        with open(p, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as m:
+            size = len(m)
+            for keyword in keywords:
+                at = m.find(keyword) if keyword else 0
+                found = _COUNTS.match(m[at + len(keyword):at + len(keyword) + 256]) if at >= 0 else None
+                for count in (int(c) for c in (found.groups() if found else ()) if c):
+                    if 2 * count > size:
+                        what = keyword.decode() or "its first line"
+                        raise MeshFileError(
+                            f"{p}: its header declares {count} records ({what}), more than "
+                            f"its {size} bytes can hold: a broken or truncated file")
+
+
 def read(path, cell_type=None):
     """Read the vertices and linear tets (or triangles) of a mesh file with meshio.
 
@@ -137,8 +176,10 @@ def read(path, cell_type=None):
     FileNotFoundError
         No such file.
     MeshFileError
-        meshio cannot read the file (unknown format, malformed content). meshio's own
-        ``sys.exit`` on some malformed files is caught: it never ends the program.
+        meshio cannot read the file (unknown format, malformed content, or counts in its
+        header larger than its content or than memory, which meshio would allocate).
+        meshio's own ``sys.exit`` on some malformed files is caught: it never ends the
+        program.
     ShapeError, EmptyMeshError
         The file holds no usable cells; see :func:`from_mesh`.
 
@@ -168,11 +209,12 @@ def read(path, cell_type=None):
     path = os.fsdecode(path)
     if not os.path.exists(path):
         raise FileNotFoundError(f"no such mesh file: {path}")
+    _check_declared_counts(path)
     out, err = _stdio.StringIO(), _stdio.StringIO()
     try:
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             mesh = meshio.read(path)
-    except (KeyboardInterrupt, MemoryError):
+    except KeyboardInterrupt:
         raise
     except BaseException as e:  # ReadError, KeyError, ValueError, ... and SystemExit
         said = " ".join(out.getvalue().split())
@@ -180,6 +222,9 @@ def read(path, cell_type=None):
             reason = said or "meshio gave up on it"
         else:
             reason = f"{type(e).__name__}: {e}" + (f"; {said}" if said else "")
+        if isinstance(e, (MemoryError, OverflowError)):  # a header's count of 10^12 vertices
+            reason = (f"it declares more data than fits in memory, in a file of "
+                      f"{os.path.getsize(path)} bytes: {reason}")
         raise MeshFileError(f"{path}: meshio could not read it ({reason})") from None
     printed = (out.getvalue() + err.getvalue()).strip()
     if printed:

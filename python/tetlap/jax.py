@@ -9,7 +9,7 @@ The topology ``T`` and the options are static (plain NumPy values, not traced). 
 float64 (``jax.config.update("jax_enable_x64", True)``) for tetlap's precision; with
 float32 inputs the results are rounded to float32.
 
-Needs ``jax`` (``pip install 'tetlap[jax]'``).
+Needs ``jax`` (``pip install ".[jax]"``).
 
 >>> import jax, jax.numpy as jnp, tetlap, tetlap.jax  # doctest: +SKIP
 >>> jax.config.update("jax_enable_x64", True)  # doctest: +SKIP
@@ -26,12 +26,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _extras
+
 try:
     import jax
     import jax.numpy as jnp
     from jax.experimental import sparse as jsparse
 except ImportError as e:  # pragma: no cover - exercised only without the extra
-    raise ImportError("tetlap.jax needs jax: pip install 'tetlap[jax]'") from e
+    raise ImportError(f"tetlap.jax needs jax: {_extras.hint('jax')}") from e
 
 from . import _adapters
 

@@ -4,17 +4,77 @@
 
 Every generator returns ``(V, T)``: ``V`` (n, 3) float64, ``T`` (m, 4) int64, positively
 oriented (``det[x1-x0, x2-x0, x3-x0] > 0``).
+
+Sizes, seeds and the other options are checked before any work (:class:`tetlap.OptionError`:
+a size must be an integer, ``cube(2.5)`` is refused); sizes are bounded by
+:data:`MAX_CUBE`, :data:`MAX_POINTS` and :data:`MIN_H`, and a size that does not fit in
+memory all the same is an ``OptionError`` too, never a bare ``MemoryError``.
 """
 
 from __future__ import annotations
 
+import functools
 import itertools
 
 import numpy as np
 
+from . import _arrays, _extras, _options
 from .diagnostics import signed_volumes
+from .errors import NonFiniteError, OptionError, ShapeError
 
-__all__ = ["compact", "cube", "ball", "shell", "sphere3", "optimized_ball", "optimized_shell", "weighted_ball", "regular_triangulation", "single_tet", "orient"]
+__all__ = ["compact", "cube", "ball", "shell", "sphere3", "optimized_ball", "optimized_shell",
+           "weighted_ball", "regular_triangulation", "single_tet", "orient", "MAX_CUBE",
+           "MAX_POINTS", "MIN_H", "MAX_WEIGHT_SCALE"]
+
+#: The largest ``k`` of :func:`cube`: its ``6 k^3`` tets are within the core's limit
+#: (``2^30 - 1`` tets, 32-bit element-corner ids).
+MAX_CUBE = 563
+#: The most points of the generators built on Qhull (:func:`ball`, :func:`shell`,
+#: :func:`weighted_ball`, :func:`sphere3`): Qhull's tetrahedralisation takes about 3 KB a
+#: point (0.6 GB and 19 s for 200,000 points), 30 GB at this bound.
+MAX_POINTS = 10**7
+#: The smallest mesh size of :func:`optimized_ball` and :func:`optimized_shell`: about 4
+#: million tets on the unit ball.
+MIN_H = 0.02
+#: The largest ``weight_scale`` of :func:`weighted_ball` and :func:`shell`: weights of
+#: 1000 ``h^2`` hide every interior point that can be hidden (Qhull's lifting loses its
+#: precision far beyond).
+MAX_WEIGHT_SCALE = 1e3
+
+
+def _fits_in_memory(f):
+    """``f`` with a ``MemoryError`` (of NumPy or Qhull) turned into an ``OptionError``
+    naming the call."""
+    @functools.wraps(f)
+    def generator(*args, **kwargs):
+        try:
+            return f(*args, **kwargs)
+        except MemoryError as e:
+            given = ", ".join([*map(repr, args), *(f"{k}={v!r}" for k, v in kwargs.items())])
+            raise OptionError(f"{f.__name__}({given}): the mesh does not fit in memory ({e}); "
+                              "ask for a smaller one") from None
+    return generator
+
+
+def _size(n, least: int, most: int, name: str = "n") -> int:
+    return _options.at_most(_options.count(n, name, least), most, name)
+
+
+def _seed(seed) -> int:
+    return _options.count(seed, "seed", least=0)
+
+
+def _qhull(build, points: np.ndarray):
+    """``build(points)`` (a scipy.spatial Delaunay or ConvexHull), Qhull's errors as a
+    ShapeError: the points span no volume, or are too few."""
+    from scipy.spatial import QhullError
+
+    try:
+        return build(points)
+    except QhullError as e:
+        first = str(e).strip().splitlines()[0]
+        raise ShapeError(f"{len(points)} points span no tetrahedralisation (too few, or all "
+                         f"in a plane; Qhull: {first})") from None
 
 
 def orient(V, T) -> np.ndarray:
@@ -44,16 +104,18 @@ def single_tet(kind: str = "corner"):
         s = 1 / np.sqrt(8)
         V = s * np.array([[1, 1, 1], [-1, 1, -1], [1, -1, -1], [-1, -1, 1]], dtype=np.float64)
     else:
-        raise ValueError(f'kind must be "corner" or "regular", got {kind!r}')
+        raise OptionError(f'kind must be "corner" or "regular", got {kind!r}')
     return V, np.array([[0, 1, 2, 3]], dtype=np.int64)
 
 
+@_fits_in_memory
 def cube(k: int = 4, *, jitter: float = 0.0, seed: int = 0):
-    """The unit cube split into ``k^3`` cells of 6 Kuhn (Freudenthal) tets each.
+    """The unit cube split into ``k^3`` cells of 6 Kuhn (Freudenthal) tets each, ``k`` an
+    integer from 1 to :data:`MAX_CUBE`.
 
-    ``jitter`` moves interior vertices by up to ``jitter / k`` per coordinate (uniform,
-    seeded), which breaks the grid's right angles while keeping the tets valid for
-    ``jitter < 0.25``.
+    ``jitter`` (0 to 0.25) moves interior vertices by up to ``jitter / k`` per coordinate
+    (uniform, seeded by ``seed``, an integer >= 0), which breaks the grid's right angles
+    while keeping the tets valid (a tet can be flat only at exactly 0.25).
 
     Example
     -------
@@ -61,8 +123,9 @@ def cube(k: int = 4, *, jitter: float = 0.0, seed: int = 0):
     >>> V.shape, T.shape
     ((27, 3), (48, 4))
     """
-    if k < 1:
-        raise ValueError("k must be at least 1")
+    k = _size(k, 1, MAX_CUBE, "k")
+    _options.at_most(_options.non_negative(jitter, "jitter"), 0.25, "jitter")
+    _seed(seed)
     g = np.arange(k + 1)
     V = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3).astype(np.float64)
     index = lambda p: (p[..., 0] * (k + 1) + p[..., 1]) * (k + 1) + p[..., 2]
@@ -106,8 +169,10 @@ def _drop_flat(V, T):
     return T[vol > 1e-12 * vol.mean()]
 
 
+@_fits_in_memory
 def ball(n: int = 2000, *, seed: int = 0):
-    """Random Delaunay tetrahedralisation of the unit ball (slivers included).
+    """Random Delaunay tetrahedralisation of the unit ball (slivers included), ``n`` points
+    (4 to :data:`MAX_POINTS`).
 
     About ``4 n^(2/3)`` vertices lie exactly on the unit sphere (a Fibonacci lattice), the
     rest are uniform random in the ball; the tets are the Delaunay tetrahedralisation
@@ -121,8 +186,9 @@ def ball(n: int = 2000, *, seed: int = 0):
     """
     from scipy.spatial import Delaunay
 
-    V, _ = _ball_points(n, np.random.default_rng(seed))
-    T = _drop_flat(V, Delaunay(V).simplices.astype(np.int64))
+    n = _size(n, 4, MAX_POINTS)
+    V, _ = _ball_points(n, np.random.default_rng(_seed(seed)))
+    T = _drop_flat(V, _qhull(Delaunay, V).simplices.astype(np.int64))
     return V, orient(V, T)
 
 
@@ -147,14 +213,17 @@ def _shell_points(n: int, rng, radii=(0.5, 0.75, 1.0)) -> tuple[np.ndarray, np.n
     return V, label
 
 
+@_fits_in_memory
 def shell(n: int = 4000, *, seed: int = 0, weight_scale: float = 0.0):
     """Random (weighted) Delaunay mesh of the spherical shell ``0.5 <= r <= 1`` with an
     interior sphere at ``r = 0.75`` (paper Sec. 8.1, Eq. 28).
 
     Vertices lie exactly (to rounding) on the three spheres; the rest are uniform in the
-    shell, at least 0.3 mean spacings from the spheres. The tets are the Delaunay (or, for
-    ``weight_scale > 0``, a regular triangulation with random interior weights as in
-    :func:`weighted_ball`) of all points, minus those inside the inner sphere.
+    shell, at least 0.3 mean spacings from the spheres (``n`` from 1 to :data:`MAX_POINTS`;
+    at least 12 points lie on each sphere). The tets are the Delaunay (or, for
+    ``weight_scale > 0``, up to :data:`MAX_WEIGHT_SCALE`, a regular triangulation with
+    random interior weights as in :func:`weighted_ball`) of all points, minus those inside
+    the inner sphere.
 
     Returns ``V, T, spheres`` with ``spheres`` (n,) int8: 0, 1, 2 for the vertices on the
     spheres of radius 0.5, 0.75, 1, and -1 for the others.
@@ -166,7 +235,9 @@ def shell(n: int = 4000, *, seed: int = 0, weight_scale: float = 0.0):
     >>> bool(np.allclose(r, 0.75, rtol=1e-14))
     True
     """
-    rng = np.random.default_rng(seed)
+    n = _size(n, 1, MAX_POINTS)
+    _weight_scale(weight_scale)
+    rng = np.random.default_rng(_seed(seed))
     V, label = _shell_points(n, rng)
     h = (4 / 3 * np.pi * (1 - 0.125) / n) ** (1 / 3)
     w = rng.uniform(0, weight_scale * h * h, size=len(V))
@@ -176,25 +247,41 @@ def shell(n: int = 4000, *, seed: int = 0, weight_scale: float = 0.0):
     return compact(V, T, label.astype(np.int8))
 
 
+def _weight_scale(value) -> float:
+    return _options.at_most(_options.non_negative(value, "weight_scale"), MAX_WEIGHT_SCALE,
+                            "weight_scale")
+
+
 def regular_triangulation(V, weights) -> np.ndarray:
     """The regular (weighted Delaunay) tetrahedralisation of points ``V`` (n, 3) with
     ``weights`` (n,): the lower convex hull of the lifted points ``(x, |x|^2 - w)``
     (``scipy.spatial.ConvexHull``), zero-volume tets removed, positively oriented.
     Points whose weight is too small to appear are left unreferenced (see
-    :func:`compact`). Zero weights give the Delaunay tetrahedralisation."""
+    :func:`compact`). Zero weights give the Delaunay tetrahedralisation.
+
+    Raises ShapeError for points that are not (n, 3) or span no volume (coplanar, fewer
+    than 5), NonFiniteError for a coordinate or weight that is not finite."""
     from scipy.spatial import ConvexHull
 
-    V = np.asarray(V, dtype=np.float64)
-    lifted = np.column_stack([V, (V**2).sum(axis=1) - np.asarray(weights, dtype=np.float64)])
-    hull = ConvexHull(lifted)
+    V = _arrays.points(V)
+    if V.shape[1] != 3:
+        raise ShapeError(f"V must have shape (n, 3), got {V.shape}")
+    if not np.isfinite(V).all():
+        raise NonFiniteError(f"V holds a coordinate that is not finite (vertex "
+                             f"{int(np.argmax(~np.isfinite(V).all(axis=1)))})")
+    w = _arrays.vector(weights, len(V), "weights")
+    lifted = np.column_stack([V, (V**2).sum(axis=1) - w])
+    hull = _qhull(ConvexHull, lifted)
     T = hull.simplices[hull.equations[:, 3] < 0].astype(np.int64)
     return orient(V, _drop_flat(V, T))
 
 
+@_fits_in_memory
 def weighted_ball(n: int = 2000, weight_scale: float = 0.0, *, seed: int = 0):
     """A ball meshed by a regular triangulation with random weights: non-Delaunay tets.
 
-    The points of :func:`ball`; interior points get weights uniform in
+    The points of :func:`ball` (``n`` from 5 to :data:`MAX_POINTS`, ``weight_scale`` from
+    0 to :data:`MAX_WEIGHT_SCALE`); interior points get weights uniform in
     ``[0, weight_scale * h^2]`` (``h`` the mean spacing ``(4/3 pi / n)^(1/3)``), boundary
     points weight 0, so the boundary stays the same (interior points that the weights hide
     are dropped). ``weight_scale = 0`` is the Delaunay
@@ -209,7 +296,9 @@ def weighted_ball(n: int = 2000, weight_scale: float = 0.0, *, seed: int = 0):
     >>> bool(tetlap.diagnostics.non_delaunay_tets(V, T).mean() > 0.05)
     True
     """
-    rng = np.random.default_rng(seed)
+    n = _size(n, 5, MAX_POINTS)
+    _weight_scale(weight_scale)
+    rng = np.random.default_rng(_seed(seed))
     V, n_boundary = _ball_points(n, rng)
     h = (4 / 3 * np.pi / n) ** (1 / 3)
     w = rng.uniform(0, weight_scale * h * h, size=n)
@@ -217,9 +306,11 @@ def weighted_ball(n: int = 2000, weight_scale: float = 0.0, *, seed: int = 0):
     return compact(V, regular_triangulation(V, w))
 
 
+@_fits_in_memory
 def sphere3(n: int = 2000, *, seed: int = 0):
     """Convex hull of ``n`` uniform random points on the unit 3-sphere in R^4 (paper
-    Sec. 8.4): a closed tetrahedral 3-manifold immersed in R^4, extrinsically Delaunay.
+    Sec. 8.4): a closed tetrahedral 3-manifold immersed in R^4, extrinsically Delaunay
+    (``n`` from 5 to :data:`MAX_POINTS`).
 
     Returns ``V`` (n, 4) float64 with ``|x| = 1`` and ``T`` (m, 4) int64.
 
@@ -231,10 +322,11 @@ def sphere3(n: int = 2000, *, seed: int = 0):
     """
     from scipy.spatial import ConvexHull
 
-    rng = np.random.default_rng(seed)
+    n = _size(n, 5, MAX_POINTS)
+    rng = np.random.default_rng(_seed(seed))
     V = rng.normal(size=(n, 4))
     V /= np.linalg.norm(V, axis=1, keepdims=True)
-    return V, ConvexHull(V).simplices.astype(np.int64)
+    return V, _qhull(ConvexHull, V).simplices.astype(np.int64)
 
 
 def _gmsh():
@@ -242,13 +334,15 @@ def _gmsh():
         import gmsh
     except ImportError:
         raise ImportError(
-            "optimized (quality) Delaunay meshes need gmsh: pip install 'tetlap[meshing]'"
+            f"optimized (quality) Delaunay meshes need gmsh: {_extras.hint('meshing')}"
         ) from None
     return gmsh
 
 
 def _gmsh_mesh(build, h: float, seed: int):
     """Run ``build(gmsh)`` (OCC geometry) and mesh it with HXT at size ``h``."""
+    _options.at_least(_options.positive(h, "h"), MIN_H, "h")
+    _options.at_most(_seed(seed), 2**31 - 1, "seed")   # gmsh's seed is a C int
     gmsh = _gmsh()
     gmsh.initialize(interruptible=False)
     try:
@@ -275,12 +369,15 @@ def _gmsh_mesh(build, h: float, seed: int):
     return V, orient(V, T)
 
 
+@_fits_in_memory
 def optimized_ball(h: float = 0.1, *, seed: int = 0):
     """A quality Delaunay mesh of the unit ball from gmsh (OCC sphere, HXT), mesh size
-    ``h``; needs the optional ``gmsh`` (``pip install 'tetlap[meshing]'``)."""
+    ``h`` (at least :data:`MIN_H`); needs the optional ``gmsh`` (``pip install
+    ".[meshing]"``)."""
     return _gmsh_mesh(lambda g: g.model.occ.addSphere(0, 0, 0, 1), h, seed)
 
 
+@_fits_in_memory
 def optimized_shell(h: float = 0.1, *, seed: int = 0):
     """A quality Delaunay mesh of the shell ``0.5 <= r <= 1`` with a conforming sphere at
     0.75, from gmsh (OCC spheres + fragment, HXT). Returns ``V, T, spheres`` like

@@ -6,7 +6,7 @@ the CPU (tensors on another device are copied to the host and back); the backwar
 :func:`tetlap.vjp`. ``T`` and the options are static. Use float64 tensors for tetlap's
 precision (float32 inputs give float32 results).
 
-Needs ``torch`` (``pip install 'tetlap[torch]'``).
+Needs ``torch`` (``pip install ".[torch]"``).
 
 >>> import torch, tetlap, tetlap.torch  # doctest: +SKIP
 >>> V, T = tetlap.meshes.cube(3, jitter=0.2)  # doctest: +SKIP
@@ -23,10 +23,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _extras
+
 try:
     import torch
 except ImportError as e:  # pragma: no cover - exercised only without the extra
-    raise ImportError("tetlap.torch needs torch: pip install 'tetlap[torch]'") from e
+    raise ImportError(f"tetlap.torch needs torch: {_extras.hint('torch')}") from e
 
 from . import _adapters
 

@@ -29,7 +29,8 @@ pub enum Error {
     IndexOutOfRange { element: usize, corner: usize, index: i64, n_vertices: usize },
     /// The same vertex appears twice in one element.
     RepeatedVertex { element: usize, vertex: u32 },
-    /// An element has exactly zero volume (its vertices are affinely dependent).
+    /// An element has exactly zero volume (a triangle: zero area; its vertices are
+    /// affinely dependent).
     Degenerate { element: usize },
     /// An element's values leave the `f64` range (a volume beyond it, or dual weights of a
     /// tet so flat that they overflow): they cannot be computed to the documented accuracy
@@ -46,6 +47,10 @@ pub enum Error {
     AffineParameter { t: f64 },
     /// [`crate::Options::threads`] is 0 or above [`crate::max_threads`].
     Threads { threads: usize, max: usize },
+    /// [`crate::Options::threads`] is `None` and the environment variable
+    /// `RAYON_NUM_THREADS` holds `value`, which is not `0` (all cores) or a count in
+    /// `1..=max` ([`crate::default_threads`]).
+    ThreadsVariable { value: String, max: usize },
     /// The operating system refused to start worker threads.
     ThreadPool { reason: String },
     /// An option that this kind of element does not support.
@@ -104,18 +109,22 @@ impl fmt::Display for Error {
             Error::NonFiniteWeight { vertex, value } => {
                 write!(f, "vertex {vertex} has a non-finite weight {value}")
             }
-            Error::IndexOutOfRange { element, corner, index, n_vertices } => write!(
-                f,
-                "element {element} refers to vertex {index} (corner {corner}), \
-                 but valid indices are 0..{n_vertices}"
-            ),
+            Error::IndexOutOfRange { element, corner, index, n_vertices } => match n_vertices {
+                0 => write!(f, "element {element} refers to vertex {index} (corner {corner}), but there are no vertices"),
+                n => write!(
+                    f,
+                    "element {element} refers to vertex {index} (corner {corner}), but there are {n} \
+                     vertices, 0 to {}",
+                    n - 1
+                ),
+            },
             Error::RepeatedVertex { element, vertex } => {
                 write!(f, "element {element} uses vertex {vertex} more than once")
             }
             Error::Degenerate { element } => write!(
                 f,
-                "element {element} is degenerate (zero volume); Degenerate::Skip gives \
-                 such elements zero contribution"
+                "element {element} is degenerate (zero volume for a tet, zero area for a \
+                 triangle); Degenerate::Skip gives such elements zero contribution"
             ),
             Error::NonFiniteResult { element } => write!(
                 f,
@@ -138,6 +147,11 @@ impl fmt::Display for Error {
             Error::Threads { threads, max } => {
                 write!(f, "Options::threads must lie in 1..={max}, got {threads}")
             }
+            Error::ThreadsVariable { value, max } => write!(
+                f,
+                "RAYON_NUM_THREADS={value:?} is not a thread count: it must be 0 (all cores) or lie in \
+                 1..={max}, as Options::threads must"
+            ),
             Error::ThreadPool { reason } => write!(f, "could not start worker threads: {reason}"),
             Error::Unsupported { option, element } => {
                 let option = match option {

@@ -83,5 +83,5 @@ pub use error::{Error, Feature, Result};
 pub use mesh::{cells_from_i64, MeshView, TetView, TriView, MAX_VERTICES};
 pub use options::{Boundary, Cancel, Degenerate, LaplacianKind, MassKind, Options};
 pub use sparse::{Coo, Csr, CsrRef, Mass};
-pub use threads::max_threads;
+pub use threads::{default_threads, max_threads, THREADS_VARIABLE};
 pub use topology::{boundary_elements, duplicate_elements, edges, faces, Faces, Incidence};

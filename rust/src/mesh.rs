@@ -40,7 +40,9 @@ pub type TetView<'a> = MeshView<'a, Tet>;
 pub type TriView<'a> = MeshView<'a, Tri>;
 
 impl<'a, S: Simplex> MeshView<'a, S> {
-    /// Checks the input and returns the view, or the first problem found.
+    /// Checks the input and returns the view, or the first problem found. The checks run
+    /// in parallel on the threads of the calling pool (inside [`crate::Options::install`]),
+    /// else on [`crate::default_threads`].
     pub fn new(points: &'a [f64], dim: usize, cells: &'a [S::Cell]) -> Result<Self> {
         let n = check_points(points, dim, S::MIN_DIM)?;
         check_cells::<S>(cells, n)?;
@@ -134,7 +136,7 @@ pub(crate) fn check_points(points: &[f64], dim: usize, min_dim: usize) -> Result
     if n > MAX_VERTICES {
         return Err(Error::TooManyVertices { n_vertices: n, max: MAX_VERTICES });
     }
-    if let Some(k) = crate::threads::position_first(points, |_, x| !x.is_finite()) {
+    if let Some(k) = crate::threads::position_first(points, |_, x| !x.is_finite())? {
         return Err(Error::NonFiniteCoordinate {
             vertex: k / dim,
             coordinate: k % dim,
@@ -171,7 +173,7 @@ fn check_cells<S: Simplex>(cells: &[S::Cell], n: usize) -> Result<()> {
         None
     };
     // the first bad element, whatever the scheduling
-    match crate::threads::position_first(cells, |t, c| problem(t, c).is_some()) {
+    match crate::threads::position_first(cells, |t, c| problem(t, c).is_some())? {
         Some(t) => Err(problem(t, &cells[t]).expect("found above")),
         None => Ok(()),
     }
@@ -198,7 +200,7 @@ pub fn cells_from_i64<S: Simplex>(flat: &[i64], n_vertices: usize) -> Result<Vec
         return Err(Error::Shape { what: format!("{} indices do not form rows of {k}", flat.len()) });
     }
     let out_of_range = |i: i64| i < 0 || i as u64 >= n_vertices as u64;
-    if let Some(at) = crate::threads::position_first(flat, |_, &i| out_of_range(i)) {
+    if let Some(at) = crate::threads::position_first(flat, |_, &i| out_of_range(i))? {
         return Err(Error::IndexOutOfRange {
             element: at / k,
             corner: at % k,
@@ -206,14 +208,15 @@ pub fn cells_from_i64<S: Simplex>(flat: &[i64], n_vertices: usize) -> Result<Vec
             n_vertices,
         });
     }
-    Ok(flat
-        .par_chunks_exact(k)
-        .map(|c| {
-            let mut cell = S::Cell::default();
-            for (out, &i) in cell.as_mut().iter_mut().zip(c) {
-                *out = i as u32;
-            }
-            cell
-        })
-        .collect())
+    crate::threads::here(|| {
+        flat.par_chunks_exact(k)
+            .map(|c| {
+                let mut cell = S::Cell::default();
+                for (out, &i) in cell.as_mut().iter_mut().zip(c) {
+                    *out = i as u32;
+                }
+                cell
+            })
+            .collect()
+    })
 }

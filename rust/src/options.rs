@@ -113,8 +113,9 @@ impl PartialEq for Cancel {
 /// Options common to every computation.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Options {
-    /// Worker threads, `1..=`[`crate::max_threads`]; `None` uses rayon's global pool (all
-    /// cores). Results do not depend on it.
+    /// Worker threads, `1..=`[`crate::max_threads`]; `None` uses
+    /// [`crate::default_threads`]: `RAYON_NUM_THREADS` if set (bounded like this count),
+    /// else all cores. Results do not depend on it.
     pub threads: Option<usize>,
     /// Policy for degenerate elements.
     pub degenerate: Degenerate,
@@ -125,12 +126,13 @@ pub struct Options {
 }
 
 impl Options {
-    /// Checks what does not depend on the mesh, the thread count ([`Error::Threads`]): the
-    /// one check, done by [`Options::install`] before anything runs.
+    /// Checks what does not depend on the mesh, the thread count ([`Error::Threads`], or
+    /// for `None` the environment's, [`Error::ThreadsVariable`]): the one check, done by
+    /// [`Options::install`] before anything runs.
     pub fn check(&self) -> Result<()> {
         match self.threads {
             Some(threads) => crate::threads::check_threads(threads),
-            None => Ok(()),
+            None => crate::threads::default_threads().map(drop),
         }
     }
 

@@ -135,7 +135,7 @@ impl CsrRef<'_> {
         let bad_row = crate::threads::position_first(&self.indptr[..n], |i, _| {
             let row = &self.indices[self.indptr[i]..self.indptr[i + 1]];
             row.windows(2).any(|w| w[0] >= w[1]) || row.last().is_some_and(|&j| j as usize >= n)
-        });
+        })?;
         if let Some(i) = bad_row {
             return shape(format!(
                 "the columns of row {i} must be strictly ascending and below {n} \

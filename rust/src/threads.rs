@@ -1,6 +1,7 @@
-//! Worker threads: rayon's global pool, or one pool per requested thread count, built on
-//! first use and kept (a call never pays for starting threads twice). Every computation
-//! enters its pool through [`crate::Options::install`], which checks the count once.
+//! Worker threads: one pool per thread count, built on first use and kept (a call never
+//! pays for starting threads twice). Every computation enters its pool through
+//! [`crate::Options::install`], which checks the count once. rayon's global pool is never
+//! used: it would size itself from `RAYON_NUM_THREADS` without any bound.
 
 use crate::error::{Error, Result};
 use rayon::prelude::*;
@@ -12,11 +13,13 @@ use std::sync::{Arc, Mutex, OnceLock};
 /// More workers than that cannot make anything faster; the bound keeps a typo such as
 /// `threads = 10**9` from starting thousands of OS threads.
 pub fn max_threads() -> usize {
-    static MAX: OnceLock<usize> = OnceLock::new();
-    *MAX.get_or_init(|| {
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        (4 * cores).max(8)
-    })
+    (4 * cores()).max(8)
+}
+
+/// The cores this process may run on, asked once (the answer reads the cgroup's files).
+fn cores() -> usize {
+    static CORES: OnceLock<usize> = OnceLock::new();
+    *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
 /// Checks a requested thread count against `1..=max_threads()`: the one check of
@@ -27,6 +30,34 @@ pub(crate) fn check_threads(threads: usize) -> Result<()> {
         Ok(())
     } else {
         Err(Error::Threads { threads, max })
+    }
+}
+
+/// The environment variable that sets the thread count when [`crate::Options::threads`]
+/// is `None`, as it does for rayon.
+pub const THREADS_VARIABLE: &str = "RAYON_NUM_THREADS";
+
+/// The thread count of [`crate::Options::threads`]` = None`: `RAYON_NUM_THREADS` if it is
+/// set (read on every call), else all cores. The variable obeys the bound of an explicit
+/// count: `0` (rayon's "all cores"), empty or unset means all cores, `1..=max_threads()`
+/// that many threads; anything else (above the bound, negative, not a number) is
+/// [`Error::ThreadsVariable`], where rayon would start that many threads or silently
+/// ignore the value.
+pub fn default_threads() -> Result<usize> {
+    threads_from_variable(std::env::var(THREADS_VARIABLE).ok().as_deref(), cores())
+}
+
+/// [`default_threads`] for the variable's `value` on `cores` cores.
+fn threads_from_variable(value: Option<&str>, cores: usize) -> Result<usize> {
+    let max = max_threads();
+    let cores = cores.clamp(1, max);
+    let Some(text) = value.map(str::trim).filter(|t| !t.is_empty()) else {
+        return Ok(cores);
+    };
+    match text.parse::<usize>() {
+        Ok(0) => Ok(cores),
+        Ok(k) if k <= max => Ok(k),
+        _ => Err(Error::ThreadsVariable { value: text.to_owned(), max }),
     }
 }
 
@@ -49,21 +80,35 @@ fn pool(threads: usize) -> Result<Arc<rayon::ThreadPool>> {
 
 /// The index of the first item of `items` for which `bad(index, item)` holds, searched in
 /// parallel by chunks, each chunk scanned in order (rayon's per-item search pays an atomic
-/// load per item: 5% of a one-shot assembly on validation alone).
-pub(crate) fn position_first<T: Sync>(items: &[T], bad: impl Fn(usize, &T) -> bool + Sync) -> Option<usize> {
+/// load per item: 5% of a one-shot assembly on validation alone). On the calling pool's
+/// threads ([`here`]).
+pub(crate) fn position_first<T: Sync>(items: &[T], bad: impl Fn(usize, &T) -> bool + Sync) -> Result<Option<usize>> {
     const CHUNK: usize = 1 << 14;
-    items.par_chunks(CHUNK).enumerate().find_map_first(|(c, chunk)| {
-        let start = c * CHUNK;
-        chunk.iter().enumerate().position(|(k, x)| bad(start + k, x)).map(|k| start + k)
+    here(|| {
+        items.par_chunks(CHUNK).enumerate().find_map_first(|(c, chunk)| {
+            let start = c * CHUNK;
+            chunk.iter().enumerate().position(|(k, x)| bad(start + k, x)).map(|k| start + k)
+        })
     })
 }
 
-/// Runs `f` on `threads` workers (their own cached pool; the count checked before, by
-/// [`check_threads`]) or on rayon's global pool.
+/// Runs `f` on `threads` workers, or on [`default_threads`] for `None`, in their own
+/// cached pool (an explicit count is checked before, by [`check_threads`]).
 pub(crate) fn run<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
-    match threads {
-        None => Ok(f()),
-        Some(k) => Ok(pool(k)?.install(f)),
+    let threads = match threads {
+        Some(k) => k,
+        None => default_threads()?,
+    };
+    Ok(pool(threads)?.install(f))
+}
+
+/// Runs the parallel step `f` of a function without options (a validation) in the pool of
+/// its caller, or in the default pool when called outside any: never in rayon's global
+/// pool.
+pub(crate) fn here<R: Send>(f: impl FnOnce() -> R + Send) -> Result<R> {
+    match rayon::current_thread_index() {
+        Some(_) => Ok(f()),
+        None => run(None, f),
     }
 }
 
@@ -78,6 +123,28 @@ mod tests {
         assert!(Arc::ptr_eq(&a, &b));
         assert_eq!(run(Some(3), rayon::current_num_threads).unwrap(), 3);
         assert_eq!(run(Some(1), rayon::current_num_threads).unwrap(), 1);
+    }
+
+    #[test]
+    fn the_variable_obeys_the_bound_of_an_explicit_count() {
+        let max = max_threads();
+        let from = |value: Option<&str>| threads_from_variable(value, 4);
+        assert_eq!(from(None), Ok(4));
+        assert_eq!(from(Some("")), Ok(4));
+        assert_eq!(from(Some("0")), Ok(4));
+        assert_eq!(from(Some(" 3 ")), Ok(3));
+        assert_eq!(from(Some(&max.to_string())), Ok(max));
+        for bad in [(max + 1).to_string(), "100000".into(), "-3".into(), "abc".into(), "2.5".into()] {
+            assert_eq!(from(Some(&bad)), Err(Error::ThreadsVariable { value: bad.clone(), max }));
+        }
+        assert_eq!(threads_from_variable(None, 10 * max), Ok(max));
+    }
+
+    #[test]
+    fn steps_without_options_run_in_the_callers_pool() {
+        assert_eq!(run(Some(3), || here(rayon::current_num_threads)).unwrap().unwrap(), 3);
+        let outside = here(rayon::current_thread_index).unwrap();
+        assert!(outside.is_some(), "outside any pool, the default pool runs it");
     }
 
     #[test]

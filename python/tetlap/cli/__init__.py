@@ -1,6 +1,7 @@
 """The ``tetlap`` command (also ``python -m tetlap``).
 
-One module per command, each with its ``NAME``, ``HELP`` and ``DESCRIPTION``, its
+One module per command, each with its ``NAME``, ``HELP`` and ``DESCRIPTION`` (and an
+optional ``EPILOG``, a list laid out as written), its
 ``arguments(parser)``, the ``check(args)`` of its numeric flags (run before any work) and
 its ``run(args)``; every table, report and JSON document is formatted in
 :mod:`tetlap.cli._output`. The work is done by :mod:`tetlap.info`, :mod:`tetlap.assembly`,
@@ -26,7 +27,7 @@ import sys
 
 from .. import __version__
 from ..errors import TetlapError
-from . import _output, assemble, bench, distributed_info, experiment, improve, info
+from . import _output, _threads, assemble, bench, distributed_info, experiment, improve, info
 from . import geodesic
 
 __all__ = ["main", "parser", "COMMANDS"]
@@ -70,22 +71,30 @@ def parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND",
                            parser_class=_CommandParser)
     for command in COMMANDS:
+        epilog = getattr(command, "EPILOG", None)  # a list, laid out as written
         sub.add_parser(command.NAME, help=command.HELP, description=command.DESCRIPTION,
-                       arguments=command.arguments)
+                       arguments=command.arguments, epilog=epilog,
+                       formatter_class=argparse.RawDescriptionHelpFormatter if epilog
+                       else argparse.HelpFormatter)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command; 2 with one line ``tetlap: error: ...`` on stderr for bad input
-    (a bad flag value among them, found before any work), 130 on Ctrl-C."""
+    (a bad flag value among them, found before any work) or for running out of memory,
+    130 on Ctrl-C."""
     args = parser().parse_args(argv)
     command = next(c for c in COMMANDS if c.NAME == args.command)
     try:
         command.check(args)
-        return command.run(args)
+        with _threads.used(getattr(args, "threads", None)):
+            return command.run(args)
     except KeyboardInterrupt:
         print("tetlap: interrupted", file=sys.stderr)
         return 130
     except (TetlapError, OSError, ImportError, ValueError) as e:
         print(_output.error_line(e), file=sys.stderr)
+        return 2
+    except MemoryError as e:
+        print(_output.error_line(MemoryError(f"out of memory: {e}")), file=sys.stderr)
         return 2

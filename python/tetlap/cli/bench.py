@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from .. import _options
-from . import _output, _paths
+from . import _output, _paths, _threads
 
 NAME = "bench"
 HELP = "timings against the floor and the baselines"
@@ -20,8 +20,7 @@ def arguments(p) -> None:
     p.add_argument("--sizes", nargs="+", choices=list(SIZES),
                    help="sizes in tets (default: 100k 1M; --quick: 10k 100k)")
     p.add_argument("--mesh", nargs="+", metavar="FILE", help="also time these mesh files")
-    p.add_argument("--threads", type=int, default=None,
-                   help="worker threads (default: all cores)")
+    _threads.argument(p)
     p.add_argument("--repeat", type=int, default=None,
                    help="repetitions, the median is reported, 1 to 10000 (default: 5; "
                         "--quick: 3)")
@@ -37,7 +36,9 @@ def arguments(p) -> None:
                    help="--solve: seconds after which a case is killed, at most 1e6 "
                         "(default: 300)")
     p.add_argument("--quick", action="store_true", help="small sizes, fewer repetitions")
-    p.add_argument("--json", action="store_true", help="print JSON records (default: a table)")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object, {schema_version, benchmark, records} "
+                        "(default: a table)")
 
 
 #: The most repetitions ``--repeat`` takes.
@@ -63,8 +64,8 @@ def run(args) -> int:
 
         names = ["ball 189k"] if args.quick else list(benchmark_solve.MESHES)
         records = benchmark_solve.run(names, cap=args.cap, progress=not args.json)
-        print(_output.json_document(records, indent=1) if args.json
-              else benchmark_solve.table(records))
+        print(_output.json_document(benchmark.document("solve", records), indent=1)
+              if args.json else benchmark_solve.table(records))
         return 0
 
     sizes = args.sizes or (["10k", "100k"] if args.quick else ["100k", "1M"])
@@ -74,5 +75,6 @@ def run(args) -> int:
     records = benchmark.run(kinds, sizes, args.mesh or (), threads=args.threads,
                             repeat=args.repeat or (3 if args.quick else 5), only=args.operators,
                             progress=not args.json)
-    print(_output.json_document(records, indent=1) if args.json else _output.bench_table(records))
+    print(_output.json_document(benchmark.document("assembly", records), indent=1)
+          if args.json else _output.bench_table(records))
     return 0

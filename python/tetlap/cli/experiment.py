@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import textwrap
 
 from .. import _options, experiments
 from . import _output, _paths
@@ -11,6 +12,10 @@ from . import _output, _paths
 NAME = "experiment"
 HELP = "reproduce the paper's experiments"
 DESCRIPTION = "One of the paper's Sec. 8 and 9 experiments: CSV, PNG, summary."
+#: The experiments, one line each with its --quick time (shown after the arguments).
+EPILOG = "experiments (--quick: seconds measured on 2 cores):\n" + "\n".join(
+    textwrap.fill(f"{e.about} (--quick: {e.quick} s)", 79, initial_indent=f"  {e.name:<18}",
+                  subsequent_indent=" " * 20) for e in experiments.EXPERIMENTS)
 
 
 def _folder(text: str) -> str:
@@ -20,8 +25,10 @@ def _folder(text: str) -> str:
 
 
 def arguments(p) -> None:
-    p.add_argument("name", choices=experiments.NAMES)
-    p.add_argument("--quick", action="store_true", help="small sizes (< 2 minutes)")
+    p.add_argument("name", choices=experiments.NAMES, metavar="NAME",
+                   help="the experiment, one of those listed below")
+    p.add_argument("--quick", action="store_true",
+                   help="small sizes (the seconds listed below; under a minute each)")
     p.add_argument("--out", help="output folder (default: tetlap-experiments/NAME)")
     p.add_argument("--seed", type=int, default=0, help="random seed, >= 0 (default: 0)")
     p.add_argument("--meshes", type=_folder,

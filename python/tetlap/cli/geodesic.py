@@ -4,7 +4,7 @@ one or more source vertices (:class:`tetlap.HeatDistance`), written as point dat
 from __future__ import annotations
 
 from .. import _options
-from . import _paths, assemble
+from . import _paths, _threads, assemble
 
 NAME = "geodesic"
 HELP = "heat-method geodesic distance from source vertices"
@@ -30,8 +30,7 @@ def arguments(p) -> None:
                         "length squared)")
     p.add_argument("--degenerate", default="raise", choices=["raise", "skip"],
                    help="zero-volume tets: an error, or no part (default: raise)")
-    p.add_argument("--threads", type=int, default=None,
-                   help="worker threads (default: all cores)")
+    _threads.argument(p)
 
 
 def check(args) -> None:

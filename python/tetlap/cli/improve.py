@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from .. import _options
-from . import _output, _paths
+from . import _output, _paths, _threads
 
 NAME = "improve"
 HELP = "move interior vertices to remove negative dual weights"
@@ -24,8 +24,7 @@ def arguments(p) -> None:
     p.add_argument("--step", type=float, default=0.3,
                    help="largest move per coordinate, in shortest incident edges, a positive "
                         "number (default: 0.3)")
-    p.add_argument("--threads", type=int, default=None,
-                   help="worker threads (default: all cores)")
+    _threads.argument(p)
 
 
 def check(args) -> None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import sys
 
 from .. import _options
-from . import _mesh, _output, _paths
+from . import _mesh, _output, _paths, _threads
 
 NAME = "info"
 HELP = "the mesh and the Table 1 properties of both Laplacians"
@@ -27,6 +27,7 @@ def arguments(p) -> None:
                         "number; past it the verdict is 'undecided' and depends on the "
                         "machine's load (default: none, a work budget that gives the same "
                         "answer on every run)")
+    _threads.argument(p)
     p.add_argument("--plot", metavar="DIR",
                    help="also write histograms of dihedral angles, weights and masses "
                         "(PNG, named after the mesh) into DIR (created if needed; needs "
@@ -39,6 +40,7 @@ def check(args) -> None:
 
     if args.regular_time is not None:
         _options.positive(args.regular_time, "--regular-time")
+    _options.threads(args.threads, "--threads")
     if args.plot is not None:
         info.pyplot()
         _paths.output_folder(args.plot, "--plot", info.plot_names(_mesh.name(args.mesh)))

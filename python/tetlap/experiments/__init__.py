@@ -3,7 +3,7 @@
 Each experiment writes into ``--out`` (default ``tetlap-experiments/NAME``) a CSV of the
 raw numbers, at least one PNG figure and ``summary.txt``, and shows a progress bar.
 ``--quick`` sizes finish in under two minutes on two cores; the full sizes approach the
-paper's. Figures need matplotlib (``pip install 'tetlap[experiments]'``).
+paper's. Figures need matplotlib (``pip install ".[experiments]"``).
 
 :data:`EXPERIMENTS` lists them, once: each name with its module (its ``run(out)``, or
 ``run(out, meshes=None)`` for those that read a corpus folder) and what it shows.
@@ -35,30 +35,37 @@ class Experiment(NamedTuple):
     """Its module in this package, imported when it runs."""
     about: str
     """What it shows."""
+    quick: int
+    """Seconds ``tetlap experiment NAME --quick`` took, measured once on the repository's
+    shared 2-core machine (the built-in meshes; process start-up included)."""
     corpus: bool = False
     """It reads a folder of mesh files (``--meshes``)."""
 
 
 EXPERIMENTS = (
     Experiment("dirichlet-shell", "shell",
-               "Eq. 28 on a spherical shell: variance on r = 0.75 (Fig. 8/9)"),
-    Experiment("eigen-ball", "eigen_ball", "Dirichlet eigenvalues of the unit ball (Fig. 10/11)"),
+               "Eq. 28 on a spherical shell: variance on r = 0.75 (Fig. 8/9)", 16),
+    Experiment("eigen-ball", "eigen_ball", "Dirichlet eigenvalues of the unit ball (Fig. 10/11)",
+               10),
     Experiment("negative-weights", "negative_weights",
-               "NaN/Inf and negative weights over a mesh corpus (Fig. 12)", corpus=True),
-    Experiment("sphere3", "sphere3", "normals and mean curvature on S^3 in R^4 (Fig. 13/14)"),
-    Experiment("flips", "flips", "sign of the Dirichlet-energy change of 2-3 / 3-2 flips (Sec. 9)"),
+               "NaN/Inf and negative weights over a mesh corpus (Fig. 12)", 4, corpus=True),
+    Experiment("sphere3", "sphere3", "normals and mean curvature on S^3 in R^4 (Fig. 13/14)",
+               4),
+    Experiment("flips", "flips", "sign of the Dirichlet-energy change of 2-3 / 3-2 flips (Sec. 9)",
+               8),
     Experiment("improve", "improve",
-               "vertex moves that remove negative dual weights (tetlap.improve)", corpus=True),
+               "vertex moves that remove negative dual weights (tetlap.improve)", 8,
+               corpus=True),
     Experiment("regular-weights", "regular_weights",
-               "weights that make a mesh regular; the Sec. 9 conjecture", corpus=True),
+               "weights that make a mesh regular; the Sec. 9 conjecture", 33, corpus=True),
     Experiment("heat-distance", "heat_distance",
-               "heat-method distance against the Euclidean one on balls and boxes (issue 29)"),
+               "heat-method distance against the Euclidean one on balls and boxes (issue 29)", 8),
     Experiment("harmonic", "harmonic",
                "the maximum principle of harmonic fields over a mesh corpus, against libigl",
-               corpus=True),
+               9, corpus=True),
     Experiment("finite-volumes", "finite_volumes",
                "Poisson on the ball: cell-centred and vertex-centred duals against the exact "
-               "solution (issue 31)"),
+               "solution (issue 31)", 7),
 )
 NAMES = tuple(e.name for e in EXPERIMENTS)
 CORPUS_NAMES = tuple(e.name for e in EXPERIMENTS if e.corpus)

@@ -8,6 +8,8 @@ import pathlib
 import time
 from typing import Callable
 
+from .. import _extras as extras
+
 
 def folder(name: str, out: str | os.PathLike | None = None) -> pathlib.Path:
     """The folder experiment ``name`` writes into: ``out``, by default
@@ -40,7 +42,8 @@ class Output:
             matplotlib.use("Agg")
             import matplotlib.pyplot as plt
         except ImportError:
-            self.say(f"(figure {filename} skipped: matplotlib is not installed)")
+            self.say(f"(figure {filename} skipped: matplotlib is not installed: "
+                     f"{extras.hint('experiments')})")
             return None
         fig = draw(plt)
         path = self.dir / filename

@@ -54,7 +54,7 @@ def run(out) -> None:
             V, T = meshes.weighted_ball(size, 1.0, seed=seed)
         else:
             V, T = meshes.ball(size, seed=seed)
-        fixed = diagnostics.boundary_vertices(T, len(V))
+        fixed = diagnostics.boundary_vertices(V, T)
         for lap, mass in PAIRS:
             L, M = assembly.operators(V, T, lap, mass)
             row = {"family": family, "size": size, "n_vertices": len(V), "laplacian": lap,
@@ -71,13 +71,14 @@ def run(out) -> None:
             out.row(**row)
 
     for family in dict.fromkeys(r["family"] for r in out.rows):
-        out.say(f"{family}:")
+        counts = dict.fromkeys(r["n_vertices"] for r in out.rows if r["family"] == family)
+        out.say(f"{family}, meshes of {', '.join(map(str, counts))} vertices:")
         for lap, mass in PAIRS:
             mine = [r for r in out.rows if r["family"] == family and r["laplacian"] == lap
                     and r["mass"] == mass]
             devs = ", ".join(f"n/a ({r['note']})" if "note" in r
                              else f"{r['mean_relative_deviation']:.4f}" for r in mine)
-            out.say(f"  {lap:>6} + {mass:<13} mean relative deviation by size: {devs}")
+            out.say(f"  {lap:>6} + {mass:<13} mean relative deviation at those sizes: {devs}")
 
     def fig10(plt):
         keys = [k for k in spectra if k[1] in (sizes[-1],) and k[2:] in

@@ -11,10 +11,12 @@ when libigl is installed), each count with the tolerance :data:`tetlap.fields.RA
 
 from __future__ import annotations
 
+import importlib.util
 import warnings
 
 import numpy as np
 
+from .. import _extras as extras
 from .. import diagnostics
 from .. import meshes as meshes_module
 from .._progress import bar as progress
@@ -41,11 +43,13 @@ def run(out, meshes=None) -> None:
         sources = sources[:12]
     out.say(f"corpus: {meshes or 'built-in generated meshes'} ({len(sources)} meshes); "
             "boundary fixed to a step in x")
+    if importlib.util.find_spec("igl") is None:
+        out.say(f"(libigl is not installed, its column is n/a: {extras.hint('baselines')})")
     for name, load in progress(sources, desc="harmonic"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             V, T = meshes_module.compact(*load())
-        b = np.flatnonzero(diagnostics.boundary_vertices(T, len(V)))
+        b = np.flatnonzero(diagnostics.boundary_vertices(V, T))
         values = (V[b, 0] > np.median(V[b, 0])).astype(float)
         row = {"mesh": name, "n_vertices": len(V), "n_tets": len(T), "n_fixed": len(b)}
         try:

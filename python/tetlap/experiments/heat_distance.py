@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import _extras as extras
 from .. import meshes
 from .._progress import bar as progress
 from ..heat import HeatDistance
@@ -74,16 +75,20 @@ def run(out) -> None:
                 out.row(**row)
 
     out.say("mean |d - |x - x_s|| / max |x - x_s| (LaPy: its heat geodesics, Neumann)")
+    if not any("lapy_error" in r or "lapy_failed" in r for r in out.rows):
+        out.say(f"  (LaPy is not installed: {extras.hint('baselines')})")
     for family in ("ball", "box"):
+        counts = dict.fromkeys(r["n_vertices"] for r in out.rows if r["family"] == family)
+        out.say(f"  {family}, meshes of {', '.join(map(str, counts))} vertices:")
         for where in ("centre", "boundary"):
             mine = [r for r in out.rows if r["family"] == family and r["source"] == where]
             for boundary in BOUNDARIES:
                 errs = ", ".join(f"{r['error']:.4f}" for r in mine if r["boundary"] == boundary)
-                out.say(f"  {family} from the {where}, {boundary}: {errs}")
+                out.say(f"    from the {where}, {boundary}: {errs}")
             lapy = [r for r in mine if r["boundary"] == "neumann"
                     and ("lapy_error" in r or "lapy_failed" in r)]
             if lapy:
-                out.say(f"  {family} from the {where}, LaPy: " + ", ".join(
+                out.say(f"    from the {where}, LaPy: " + ", ".join(
                     f"{r['lapy_error']:.4f}" if "lapy_error" in r
                     else f"failed ({r['lapy_failed']})" for r in lapy))
 

@@ -52,7 +52,7 @@ def jittered_ball(n: int, amount: float, seed: int):
     V, T = generate.ball(n, seed=seed)
     rng = np.random.default_rng(seed + 1000)
     h = (4 / 3 * np.pi / n) ** (1 / 3)
-    inner = diagnostics.interior_vertices(T, len(V))
+    inner = diagnostics.interior_vertices(V, T)
     move = np.zeros_like(V)
     move[inner] = rng.uniform(-1, 1, size=(int(inner.sum()), 3)) * amount * h
     sign0 = np.sign(diagnostics.signed_volumes(V, T))
@@ -85,7 +85,7 @@ def bcc(k: int):
 
 def _interior_edges(V, T):
     edges = diagnostics.mesh_edges(T)
-    b = diagnostics.boundary_vertices(T, len(V))
+    b = diagnostics.boundary_vertices(V, T)
     return edges, ~(b[edges[:, 0]] & b[edges[:, 1]])
 
 
@@ -155,7 +155,7 @@ def _mesh_row(name, family, V, T, *, nsd):
     row["mass_nonpositive_dual"] = int((M.diagonal() <= 0).sum())
     m_w = (M if weights is None else
            assembly.mass(V, T, "circumcentric", weights=weights)).diagonal()
-    used = diagnostics.referenced_vertices(T, len(V))
+    used = diagnostics.referenced_vertices(V, T)
     row["mass_nonpositive_weighted"] = int((m_w[used] <= 0).sum())
     row["masses_lost"] = len(r.masses_lost)
     row["note"] = "; ".join(r.notes)

@@ -37,7 +37,8 @@ def run(out) -> None:
         n = np.log([r["n_vertices"] for r in rows])
         a = np.log([r[f"normal_angle_mean_deg_{kind}"] for r in rows])
         h = np.log([r[f"curvature_error_mean_{kind}"] for r in rows])
-        out.say(f"{kind}: mean normal angle {rows[0][f'normal_angle_mean_deg_{kind}']:.3f} -> "
+        out.say(f"{kind}, {rows[0]['n_vertices']} -> {rows[-1]['n_vertices']} samples: mean "
+                f"normal angle {rows[0][f'normal_angle_mean_deg_{kind}']:.3f} -> "
                 f"{rows[-1][f'normal_angle_mean_deg_{kind}']:.3f} deg (slope in n "
                 f"{np.polyfit(n, a, 1)[0]:.2f}); mean |H - 1| "
                 f"{rows[0][f'curvature_error_mean_{kind}']:.4f} -> "

@@ -58,11 +58,10 @@ def keep_masses(V, T, problem: Problem, outcome: Outcome, lo: np.ndarray, hi: np
     ``"reached"``): returns ``u`` (problem units) and what it did. The faces keep half the
     floors the search reached."""
     iterations = min(budget.iterations, MASS_ITERATIONS)
-    u, info = _core.regular_masses(V, T, problem.core_rows,
-                                   (outcome.floors, outcome.aims, lo, hi),
-                                   (plain, float(mass_floor), problem.scale), outcome.u,
-                                   iterations, seconds=budget.seconds(),
-                                   options={"threads": threads})
+    targets = (outcome.floors, outcome.aims, lo, hi)
+    u, info = _core.regular_masses(
+        V, T, (problem.core_rows, targets, (plain, float(mass_floor), problem.scale)),
+        outcome.u, (iterations, budget.seconds()), options={"threads": threads})
     budget.iterations -= info["iterations"]
     return u, MassStep(rounds=info["rounds"], iterations=info["iterations"],
                        kept=info["kept"], lost=info["lost"], deficit=info["deficit"])

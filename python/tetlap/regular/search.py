@@ -314,7 +314,7 @@ def search(V, T, cond: Conditions, problem: Problem, sign: np.ndarray, target: f
     if (inward != lo).any():
         u, stop, used, _, _ = _core.regular_search(
             problem.core_rows, (floors, aims, inward, hi), out.u,
-            max(min(budget.iterations, CHECKPOINT), 1), seconds=budget.seconds(),
+            (max(min(budget.iterations, CHECKPOINT), 1), budget.seconds()),
             options={"threads": threads})
         budget.iterations = max(budget.iterations - used, 0)
         out.iterations += used
@@ -343,8 +343,8 @@ def search(V, T, cond: Conditions, problem: Problem, sign: np.ndarray, target: f
         spent = 0
         for checkpoint in checkpoints:
             u, stop, used, short, _ = _core.regular_search(
-                problem.core_rows, (floors, aims, lo, hi), out.u, max(checkpoint - spent, 1),
-                seconds=budget.seconds(), options={"threads": threads})
+                problem.core_rows, (floors, aims, lo, hi), out.u,
+                (max(checkpoint - spent, 1), budget.seconds()), options={"threads": threads})
             spent += used
             budget.iterations = max(budget.iterations - used, 0)
             out.u, out.iterations = u, out.iterations + used

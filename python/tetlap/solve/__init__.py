@@ -21,7 +21,7 @@ element take part in no system. Long solves answer Ctrl-C within a second.
 >>> import numpy as np, tetlap
 >>> V, T = tetlap.meshes.cube(4, jitter=0.2)
 >>> L = tetlap.laplacian(V, T, "dual")
->>> fixed = tetlap.diagnostics.boundary_vertices(T, len(V))
+>>> fixed = tetlap.diagnostics.boundary_vertices(V, T)
 >>> f = tetlap.solve.dirichlet(L, fixed, V[:, 0] + 2 * V[:, 1])   # a linear function
 >>> bool(np.allclose(f, V[:, 0] + 2 * V[:, 1]))                   # is reproduced
 True

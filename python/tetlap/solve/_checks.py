@@ -7,7 +7,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import _arrays, _options
-from ..errors import DtypeError, IndexRangeError, OptionError, ShapeError, SolveError
+from ..errors import DtypeError, NonFiniteError, OptionError, ShapeError, SolveError
 
 #: Largest relative residual ``|A x - b|_inf / (|A|_inf |x|_inf + |b|_inf)`` accepted.
 RESIDUAL_TOL = 1e-8
@@ -33,21 +33,7 @@ def rtol(value, name: str = "rtol") -> float:
 
 
 def mask(fixed, n: int) -> np.ndarray:
-    fixed = _arrays._as_array(fixed, "fixed")
-    if fixed.dtype == bool:
-        if fixed.shape != (n,):
-            raise ShapeError(f"a boolean `fixed` must have shape ({n},), got {fixed.shape}")
-        return fixed.copy()
-    if fixed.size == 0:
-        return np.zeros(n, dtype=bool)
-    if fixed.dtype.kind not in "iu":
-        raise DtypeError("`fixed` must be a boolean mask or integer vertex indices")
-    if fixed.min() < 0 or fixed.max() >= n:
-        bad = int(fixed.ravel()[np.argmax((fixed.ravel() < 0) | (fixed.ravel() >= n))])
-        raise IndexRangeError(f"`fixed` holds the index {bad}, outside 0..{n - 1}", index=bad)
-    out = np.zeros(n, dtype=bool)
-    out[fixed.ravel()] = True
-    return out
+    return _arrays.vertex_mask(fixed, n, "fixed")
 
 
 def values(v, fixed: np.ndarray) -> np.ndarray:
@@ -98,13 +84,46 @@ def relative_residual(A, x: np.ndarray, b: np.ndarray, norm: float | None = None
     return float(np.max(np.where(scale > 0, r / np.maximum(scale, 1e-300), np.where(r > 0, np.inf, 0.0))))
 
 
+#: Data whose largest magnitude is at least this is solved scaled by a power of two (exact),
+#: so that sums and residuals stay in the float64 range.
+LARGE = 2.0**500
+
+
+def exponent(*arrays: np.ndarray) -> int:
+    """The power of two that brings the largest magnitude of ``arrays`` into ``[1, 2)``
+    when it is at least :data:`LARGE`, else 0 (ordinary data are solved unscaled, bitwise
+    as before)."""
+    largest = max((float(np.abs(a).max()) for a in arrays if a.size), default=0.0)
+    return int(np.frexp(largest)[1]) - 1 if largest >= LARGE else 0
+
+
+def unscaled(x: np.ndarray, e: int, what: str) -> np.ndarray:
+    """``x 2^e``, or :class:`tetlap.NonFiniteError` when that leaves the float64 range."""
+    if e == 0:
+        return x
+    with np.errstate(over="ignore"):
+        x = np.ldexp(x, e)
+    if not np.isfinite(x).all():
+        raise NonFiniteError(f"the solution of the {what} leaves the float64 range (the "
+                             "data are too large for it); scale them down")
+    return x
+
+
 def accept(A, x, b, what: str, info, norm: float | None = None) -> np.ndarray:
     """``x`` if it passes the residual check (the residual goes into ``info``), else
-    :class:`tetlap.SolveError` saying why."""
-    with info.phase("check"):
+    :class:`tetlap.SolveError` saying why (:class:`tetlap.NonFiniteError` for data so
+    large that the solution overflows)."""
+    if not np.isfinite(b).all():
+        raise NonFiniteError(f"the right-hand side of the {what} leaves the float64 range "
+                             "(the values or the right-hand side are too large); scale them "
+                             "down")
+    with info.phase("check"), np.errstate(over="ignore"):
         res = relative_residual(A, x, b, norm)
     info.residual = max(info.residual, res)
     if not np.isfinite(x).all():
+        if exponent(b):
+            raise NonFiniteError(f"the solution of the {what} leaves the float64 range (the "
+                                 "right-hand side is too large for it); scale the data down")
         raise SolveError(f"the {what} is singular (the solution is not finite)")
     if res > RESIDUAL_TOL:
         raise SolveError(f"the {what} is singular or too ill-conditioned: relative residual "

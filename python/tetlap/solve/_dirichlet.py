@@ -57,13 +57,16 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
     ------
     tetlap.SolveError
         A component without a fixed vertex, or a system without an accurate solution.
+    tetlap.NonFiniteError
+        A solution beyond the float64 range (values and ``rhs`` up to its largest number
+        are solved scaled by a power of two, exactly).
 
     Examples
     --------
     >>> import numpy as np, tetlap
     >>> V, T = tetlap.meshes.cube(4, jitter=0.2)
     >>> L = tetlap.laplacian(V, T, "dual")
-    >>> fixed = tetlap.diagnostics.boundary_vertices(T, len(V))
+    >>> fixed = tetlap.diagnostics.boundary_vertices(V, T)
     >>> f, info = tetlap.solve.dirichlet(L, fixed, V[:, 0], solver="cholesky", return_info=True)
     >>> bool(np.allclose(f, V[:, 0])), info.solver, info.residual < 1e-12
     (True, 'cholesky', True)
@@ -96,6 +99,8 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
         v = int(np.flatnonzero(lone & (b != 0))[0])
         raise SolveError(f"vertex {v} belongs to no element but has rhs {b[v]:g} != 0")
     f[lone] = 0.0
+    e = _checks.exponent(f, b)  # 1e308 values: solved scaled by 2^-e (exact), then back
+    f, b = np.ldexp(f, -e), np.ldexp(b, -e)
     if free.any():
         if method == "eliminate":
             with info.phase("reduce"):
@@ -113,4 +118,5 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
             full = np.where(free, b, f)[referenced]
             f[referenced] = _linear.solve(sp.csr_array(A), full, "Dirichlet system", solver="lu",
                                           info=info, symmetric=False)
+    f = _checks.unscaled(f, e, "Dirichlet system")
     return (f, info) if return_info else f

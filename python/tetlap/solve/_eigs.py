@@ -84,7 +84,7 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None, solver: s
     >>> import tetlap
     >>> V, T = tetlap.meshes.cube(6)
     >>> L, M = tetlap.operators(V, T, "primal", "barycentric")
-    >>> fixed = tetlap.diagnostics.boundary_vertices(T, len(V))
+    >>> fixed = tetlap.diagnostics.boundary_vertices(V, T)
     >>> lam, vec, info = tetlap.solve.eigs(L, M, 3, fixed, return_info=True)
     >>> bool(lam[0] > 3 * 3.14159**2 * 0.9), vec.shape, info.verification is not None
     (True, (343, 3), True)

@@ -32,8 +32,9 @@ cells_job!(EdgesJob, Vec<[u32; 2]>, |cells, n, opts| tetlap::edges::<S>(cells, n
 #[pyfunction]
 #[pyo3(signature = (cells, n, *, options=None))]
 pub fn faces<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, options: Option<OptionsArg>) -> PyResult<Bound<'py, PyTuple>> {
-    let input = CellsInput::new(py, &cells, n)?;
-    let f = compute(py, OptionsArg::options(options), move |opts| input.run(FacesJob, opts))?;
+    let opts = OptionsArg::options(options);
+    let input = CellsInput::new(py, &cells, n, &opts)?;
+    let f = compute(py, opts, move |opts| input.run(FacesJob, opts))?;
     let nonmanifold: Vec<i64> = f.nonmanifold.iter().flat_map(|r| r.map(|v| if v == u32::MAX { -1 } else { v as i64 })).collect();
     let nonmanifold = PyArray1::from_vec(py, nonmanifold).reshape([f.nonmanifold.len(), 3])?.into_any();
     PyTuple::new(py, [table(py, &f.boundary)?, table(py, &f.interior)?, nonmanifold])
@@ -43,16 +44,18 @@ pub fn faces<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, 
 #[pyfunction]
 #[pyo3(signature = (cells, n, *, options=None))]
 pub fn duplicates<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, options: Option<OptionsArg>) -> PyResult<Bound<'py, PyArray1<bool>>> {
-    let input = CellsInput::new(py, &cells, n)?;
-    Ok(PyArray1::from_vec(py, compute(py, OptionsArg::options(options), move |opts| input.run(DuplicatesJob, opts))?))
+    let opts = OptionsArg::options(options);
+    let input = CellsInput::new(py, &cells, n, &opts)?;
+    Ok(PyArray1::from_vec(py, compute(py, opts, move |opts| input.run(DuplicatesJob, opts))?))
 }
 
 /// `(E, 2)` int64: the unique edges `i < j`, sorted.
 #[pyfunction]
 #[pyo3(signature = (cells, n, *, options=None))]
 pub fn edges<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, options: Option<OptionsArg>) -> PyResult<Bound<'py, PyAny>> {
-    let input = CellsInput::new(py, &cells, n)?;
-    table(py, &compute(py, OptionsArg::options(options), move |opts| input.run(EdgesJob, opts))?)
+    let opts = OptionsArg::options(options);
+    let input = CellsInput::new(py, &cells, n, &opts)?;
+    table(py, &compute(py, opts, move |opts| input.run(EdgesJob, opts))?)
 }
 
 /// The element certificate of [`tetlap::negative_semidefinite_by_elements`] for edge
@@ -93,21 +96,23 @@ pub fn element_certificate<'py>(
     tol: PyReadonlyArray1<'py, f64>,
     options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let input = CellsInput::new(py, &cells, n)?;
+    let opts = OptionsArg::options(options);
+    let input = CellsInput::new(py, &cells, n, &opts)?;
     let edges = if cells.shape()[1] == 4 { 6 } else { 3 };
     if weights.shape() != [input.cells.len(), edges] {
         return Err(shape_error(py, format!("weights must have shape ({}, {edges}), got {:?}", input.cells.len(), weights.shape())));
     }
     let job = ElementCertificateJob { weights: contiguous(py, &weights)?.to_vec(), tol: contiguous(py, &tol)?.to_vec() };
-    verdict(py, compute(py, OptionsArg::options(options), move |opts| input.run(job, opts))?)
+    verdict(py, compute(py, opts, move |opts| input.run(job, opts))?)
 }
 
 /// `(volume (m,), dihedral (m, 6) degrees, well_centered (m,) bool)` of a tet mesh.
 #[pyfunction]
 #[pyo3(signature = (points, cells, *, options=None))]
 pub fn quality<'py>(py: Python<'py>, points: PyReadonlyArray2<'py, f64>, cells: PyReadonlyArray2<'py, i64>, options: Option<OptionsArg>) -> PyResult<Bound<'py, PyTuple>> {
-    let input = Input::new(py, &points, &cells, None)?;
-    let q = compute(py, OptionsArg::options(options), move |opts| tetlap::quality(&input.tets("the quality report")?, opts))?;
+    let opts = OptionsArg::options(options);
+    let input = Input::new(py, &points, &cells, None, &opts)?;
+    let q = compute(py, opts, move |opts| tetlap::quality(&input.tets("the quality report")?, opts))?;
     let volume: Vec<f64> = q.iter().map(|t| t.volume).collect();
     let dihedral: Vec<f64> = q.iter().flat_map(|t| t.dihedral).collect();
     let well: Vec<bool> = q.iter().map(|t| t.well_centered).collect();
@@ -133,14 +138,15 @@ pub fn non_delaunay<'py>(
     rtol: f64,
     options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyArray1<bool>>> {
-    let input = Input::new(py, &points, &cells, None)?;
+    let opts = OptionsArg::options(options);
+    let input = Input::new(py, &points, &cells, None, &opts)?;
     if interior.shape()[1] != 4 {
         return Err(shape_error(py, "interior faces must have 4 columns".into()));
     }
     // out-of-range entries become values no mesh has; the core names the face
     let faces: Vec<[u32; 4]> =
         contiguous(py, &interior)?.chunks_exact(4).map(|f| std::array::from_fn(|k| u32::try_from(f[k]).unwrap_or(u32::MAX))).collect();
-    let flags = compute(py, OptionsArg::options(options), move |opts| {
+    let flags = compute(py, opts, move |opts| {
         tetlap::non_delaunay_faces(&input.tets("the Delaunay test")?, &faces, rtol, opts)
     })?;
     Ok(PyArray1::from_vec(py, flags))
@@ -173,9 +179,10 @@ pub fn check_operator<'py>(
     negative_tol: f64,
     options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let input = Input::new(py, &points, &cells, None)?;
+    let opts = OptionsArg::options(options);
+    let input = Input::new(py, &points, &cells, None, &opts)?;
     let job = CheckJob { l, boundary: contiguous(py, &boundary)?.to_vec(), negative_tol };
-    let c = compute(py, OptionsArg::options(options), move |opts| input.run(job, opts))?;
+    let c = compute(py, opts, move |opts| input.run(job, opts))?;
     let d = PyDict::new(py);
     d.set_item("finite", c.finite)?;
     d.set_item("scale", c.scale)?;

@@ -17,16 +17,21 @@ pub enum Cells {
 }
 
 impl Cells {
-    /// Copies `cells`, `(m, 4)` or `(m, 3)` int64, every index checked against `n`: the one
-    /// dispatch on the element kind.
-    pub fn new(py: Python<'_>, cells: &PyReadonlyArray2<'_, i64>, n: usize) -> PyResult<Self> {
+    /// Copies `cells`, `(m, 4)` or `(m, 3)` int64, every index checked against `n` on the
+    /// threads of `opts`: the one dispatch on the element kind.
+    pub fn new(py: Python<'_>, cells: &PyReadonlyArray2<'_, i64>, n: usize, opts: &Options) -> PyResult<Self> {
         let flat = contiguous(py, cells)?;
-        let checked = |e| to_py(py, e);
-        Ok(match cells.shape()[1] {
-            4 => Cells::Tets(tetlap::cells_from_i64::<Tet>(flat, n).map_err(checked)?),
-            3 => Cells::Tris(tetlap::cells_from_i64::<Tri>(flat, n).map_err(checked)?),
-            k => return Err(shape_error(py, format!("elements must have 3 or 4 columns, got {k}"))),
+        let k = cells.shape()[1];
+        if k != 3 && k != 4 {
+            return Err(shape_error(py, format!("elements must have 3 or 4 columns, got {k}")));
+        }
+        opts.install(|| {
+            Ok(match k {
+                4 => Cells::Tets(tetlap::cells_from_i64::<Tet>(flat, n)?),
+                _ => Cells::Tris(tetlap::cells_from_i64::<Tri>(flat, n)?),
+            })
         })
+        .map_err(|e| to_py(py, e))
     }
 
     /// The number of elements.
@@ -57,8 +62,8 @@ pub struct CellsInput {
 }
 
 impl CellsInput {
-    pub fn new(py: Python<'_>, cells: &PyReadonlyArray2<'_, i64>, n: usize) -> PyResult<Self> {
-        Ok(CellsInput { cells: Cells::new(py, cells, n)?, n })
+    pub fn new(py: Python<'_>, cells: &PyReadonlyArray2<'_, i64>, n: usize, opts: &Options) -> PyResult<Self> {
+        Ok(CellsInput { cells: Cells::new(py, cells, n, opts)?, n })
     }
 
     /// Runs `job` on the elements, whatever their kind.
@@ -87,16 +92,17 @@ pub struct Input {
 }
 
 impl Input {
-    /// Copies `points` (n, d) float64, `cells` (m, 4) or (m, 3) int64 (indices checked) and
-    /// `weights` (n,) float64.
+    /// Copies `points` (n, d) float64, `cells` (m, 4) or (m, 3) int64 (indices checked on
+    /// the threads of `opts`) and `weights` (n,) float64.
     pub fn new(
         py: Python<'_>,
         points: &PyReadonlyArray2<'_, f64>,
         cells: &PyReadonlyArray2<'_, i64>,
         weights: Option<&PyReadonlyArray1<'_, f64>>,
+        opts: &Options,
     ) -> PyResult<Self> {
         let [n, dim] = [points.shape()[0], points.shape()[1]];
-        let cells = Cells::new(py, cells, n)?;
+        let cells = Cells::new(py, cells, n, opts)?;
         let points = contiguous(py, points)?.to_vec();
         let weights = weights.map(|w| contiguous(py, w).map(<[f64]>::to_vec)).transpose()?;
         Ok(Input { points, dim, cells, weights })

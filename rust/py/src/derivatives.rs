@@ -11,7 +11,7 @@ use crate::errors::{compute, option_error, shape_error};
 use crate::options::{Kind, MassArg, OptionsArg};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use pyo3::types::{PyString, PyTuple};
+use pyo3::types::{PyDict, PyString, PyTuple};
 use pyo3::Borrowed;
 use tetlap::{Columns, Cotangents, LaplacianCotangent, MassCotangent};
 
@@ -53,8 +53,27 @@ impl<'a, 'py> FromPyObject<'a, 'py> for Cotangent {
     }
 }
 
-/// An operator's kind with its cotangent, if there is one (a cotangent needs a kind).
-fn paired<K>(py: Python<'_>, kind: Option<K>, cotangent: Option<Cotangent>, what: &str) -> PyResult<Option<(K, Cotangent)>> {
+/// The cotangents of one product, as the Python layer hands them over: a dict with any of
+/// `"laplacian"` and `"mass"`, each an operator's `(kind, cotangent)` pair; a `None`
+/// cotangent (or a missing key) is no term, and a cotangent needs its operator's kind.
+pub struct CotangentsArg {
+    laplacian: Option<(tetlap::LaplacianKind, Cotangent)>,
+    mass: Option<(tetlap::MassKind, Cotangent)>,
+}
+
+/// The `(kind, cotangent)` pair of `dict[key]`, parsed (the kind even without a cotangent).
+fn term<'py, K>(dict: &Bound<'py, PyDict>, key: &str) -> PyResult<(Option<K>, Option<Cotangent>)>
+where
+    K: for<'a> FromPyObject<'a, 'py, Error = PyErr>,
+{
+    match dict.get_item(key)? {
+        Some(pair) => pair.extract(),
+        None => Ok((None, None)),
+    }
+}
+
+/// A kind with its cotangent, if there is one (a cotangent needs a kind).
+fn paired<K>(py: Python<'_>, (kind, cotangent): (Option<K>, Option<Cotangent>), what: &str) -> PyResult<Option<(K, Cotangent)>> {
     match (kind, cotangent) {
         (Some(kind), Some(c)) => Ok(Some((kind, c))),
         (_, None) => Ok(None),
@@ -62,26 +81,35 @@ fn paired<K>(py: Python<'_>, kind: Option<K>, cotangent: Option<Cotangent>, what
     }
 }
 
-/// `(gradient (n, d), weight gradient (n,) or None, value)` of `<dl, L> + <dm, M>`.
+impl<'a, 'py> FromPyObject<'a, 'py> for CotangentsArg {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        let py = obj.py();
+        let dict = obj.cast::<PyDict>().map_err(|_| option_error(py, "internal: cotangents must be a dict".into()))?.to_owned();
+        let laplacian = paired(py, term::<Kind>(&dict, "laplacian")?, "Laplacian")?;
+        let mass = paired(py, term::<MassArg>(&dict, "mass")?, "mass")?;
+        Ok(CotangentsArg { laplacian: laplacian.map(|(k, c)| (k.0, c)), mass: mass.map(|(k, c)| (k.0, c)) })
+    }
+}
+
+/// `(gradient (n, d), weight gradient (n,) or None, value)` of `<dl, L> + <dm, M>`, with
+/// `cotangents = {"laplacian": (kind, dl), "mass": (kind, dm)}` (see [`CotangentsArg`]).
 #[pyfunction]
-#[pyo3(signature = (points, cells, laplacian, mass, *, dl=None, dm=None, weights=None, options=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (points, cells, cotangents, *, weights=None, options=None))]
 pub fn vjp<'py>(
     py: Python<'py>,
     points: PyReadonlyArray2<'py, f64>,
     cells: PyReadonlyArray2<'py, i64>,
-    laplacian: Option<Kind>,
-    mass: Option<MassArg>,
-    dl: Option<Cotangent>,
-    dm: Option<Cotangent>,
+    cotangents: CotangentsArg,
     weights: Option<PyReadonlyArray1<'py, f64>>,
     options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let input = Input::new(py, &points, &cells, weights.as_ref())?;
-    let lap = paired(py, laplacian.map(|k| k.0), dl, "Laplacian")?;
-    let mass = paired(py, mass.map(|k| k.0), dm, "mass")?;
+    let opts = OptionsArg::options(options);
+    let input = Input::new(py, &points, &cells, weights.as_ref(), &opts)?;
+    let CotangentsArg { laplacian: lap, mass } = cotangents;
     let dim = input.dim;
-    let g = compute(py, OptionsArg::options(options), move |opts| {
+    let g = compute(py, opts, move |opts| {
         let mesh = input.tets("a derivative")?;
         let n = mesh.n_vertices();
         let form = |what: &str| tetlap::Error::Shape { what: format!("a {what} cotangent cannot take this form") };

@@ -21,10 +21,11 @@ pub fn dual_centres<'py>(
     weights: Option<PyReadonlyArray1<'py, f64>>,
     options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let input = Input::new(py, &points, &cells, weights.as_ref())?;
+    let opts = OptionsArg::options(options);
+    let input = Input::new(py, &points, &cells, weights.as_ref(), &opts)?;
     let dim = input.dim;
     let tetlap::DualCentres { points, tets } =
-        compute(py, OptionsArg::options(options), move |opts| tetlap::dual_centres(&input.tets("the dual geometry")?, opts))?;
+        compute(py, opts, move |opts| tetlap::dual_centres(&input.tets("the dual geometry")?, opts))?;
     let m = tets.len();
     let table = |f: fn(&tetlap::TetDual) -> [f64; 4]| -> PyResult<Bound<'py, PyAny>> {
         Ok(PyArray1::from_iter(py, tets.iter().flat_map(f)).reshape([m, 4])?.into_any())

@@ -100,8 +100,8 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             py,
             &c.degenerate,
             format!(
-                "element {element} is degenerate (zero volume); pass degenerate=\"skip\" to give \
-                 such elements zero contribution"
+                "element {element} is degenerate (zero volume for a tet, zero area for a \
+                 triangle); pass degenerate=\"skip\" to give such elements zero contribution"
             ),
             &[("element", i(element))],
         ),
@@ -109,9 +109,9 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             py,
             &c.degenerate,
             format!(
-                "element {element}: its values leave the float64 range (a volume beyond it, or \
-                 so flat a tet that its dual weights overflow); pass degenerate=\"skip\" to \
-                 drop it"
+                "element {element}: its values leave the float64 range (a volume or area beyond \
+                 it, or so flat an element that its dual weights overflow); pass \
+                 degenerate=\"skip\" to drop it"
             ),
             &[("element", i(element))],
         ),
@@ -140,6 +140,16 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             py,
             &c.option,
             format!("threads must be None or an integer from 1 to {max}, got {threads}"),
+            &[],
+        ),
+        Error::ThreadsVariable { value, max } => raise(
+            py,
+            &c.option,
+            format!(
+                "the environment variable RAYON_NUM_THREADS is {value:?}: with threads=None it sets \
+                 the thread count and must be 0 (all cores) or an integer from 1 to {max} \
+                 (tetlap.MAX_THREADS); fix or unset it, or pass threads="
+            ),
             &[],
         ),
         Error::ThreadPool { reason } => {
@@ -228,14 +238,16 @@ pub fn guarded<T: Send>(
     }
 }
 
-/// [`guarded`] for `f(&opts)`, cancelled through the options' own flag.
+/// [`guarded`] for `f(&opts)` in the options' thread pool (so that what `f` validates
+/// before the core's own `install` runs on those threads too), cancelled through the
+/// options' own flag.
 pub fn compute<T: Send>(
     py: Python<'_>,
     mut opts: tetlap::Options,
     f: impl FnOnce(&tetlap::Options) -> tetlap::Result<T> + Send,
 ) -> PyResult<T> {
     let cancel = opts.cancel.get_or_insert_with(Cancel::new).clone();
-    guarded(py, &cancel, move || f(&opts))
+    guarded(py, &cancel, move || opts.install(|| f(&opts)))
 }
 
 /// `f()`, or the message of the panic it raised.

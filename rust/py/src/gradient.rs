@@ -30,9 +30,10 @@ pub fn gradients<'py>(
     cells: PyReadonlyArray2<'py, i64>,
     options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let input = Input::new(py, &points, &cells, None)?;
+    let opts = OptionsArg::options(options);
+    let input = Input::new(py, &points, &cells, None, &opts)?;
     let dim = input.dim;
-    let (g, vol, k) = compute(py, OptionsArg::options(options), move |opts| input.run(Gradients, opts))?;
+    let (g, vol, k) = compute(py, opts, move |opts| input.run(Gradients, opts))?;
     let m = vol.len();
     PyTuple::new(py, [PyArray1::from_vec(py, g).reshape([m, k, dim])?.into_any(), PyArray1::from_vec(py, vol).into_any()])
 }

@@ -67,8 +67,9 @@ mod _core {
         weights: Option<PyReadonlyArray1<'py, f64>>,
         options: Option<OptionsArg>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let input = Input::new(py, &points, &cells, weights.as_ref())?;
-        compute(py, OptionsArg::options(options), move |opts| input.run(request, opts))?.into_py(py)
+        let opts = OptionsArg::options(options);
+        let input = Input::new(py, &points, &cells, weights.as_ref(), &opts)?;
+        compute(py, opts, move |opts| input.run(request, opts))?.into_py(py)
     }
 
     /// Checks the options before any work (what every call does first): `None` or an

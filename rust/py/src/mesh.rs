@@ -83,8 +83,9 @@ impl PyMesh {
         weights: Option<PyReadonlyArray1<'_, f64>>,
         options: Option<OptionsArg>,
     ) -> PyResult<Self> {
-        let Input { points, dim, cells, weights } = Input::new(py, &points, &cells, weights.as_ref())?;
-        let inner = compute(py, OptionsArg::options(options), move |opts| {
+        let opts = OptionsArg::options(options);
+        let Input { points, dim, cells, weights } = Input::new(py, &points, &cells, weights.as_ref(), &opts)?;
+        let inner = compute(py, opts, move |opts| {
             let opts = opts.clone();
             let mut mesh = match cells {
                 Cells::Tets(c) => AnyMesh::Tets(CachedMesh::with_vertex_weights(points, dim, c, weights, opts)?),

@@ -27,7 +27,8 @@ impl<'a, 'py> FromPyObject<'a, 'py> for Kind {
 
     fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
         let bad = || {
-            let message = format!("kind must be \"primal\", \"dual\" or a float t in [0, 1], got {}", repr(obj));
+            // the value's role, not a keyword: callers name it kind=, laplacian=, ...
+            let message = format!("Laplacian kind must be \"primal\", \"dual\" or a float t in [0, 1], got {}", repr(obj));
             option_error(obj.py(), message)
         };
         if let Some(name) = string(obj) {
@@ -104,7 +105,7 @@ impl<'a, 'py> FromPyObject<'a, 'py> for OptionsArg {
             match string(key.as_borrowed()).as_deref() {
                 Some("boundary") => {
                     let choices = [("circumcentric", Boundary::Circumcentric), ("barycentric", Boundary::Barycentric)];
-                    opts.boundary = named(value, "boundary", &choices)?;
+                    opts.boundary = named(value, "boundary treatment of the dual", &choices)?;
                 }
                 Some("degenerate") => {
                     opts.degenerate = named(value, "degenerate", &[("raise", Degenerate::Raise), ("skip", Degenerate::Skip)])?;

@@ -3,7 +3,7 @@
 //!
 //! The face conditions go to Python as arrays and come back as `rows = (vertices (c, 5)
 //! int64, g0 (c,), coefficients (c, 5))`, with `targets = (floor (c,), aim (c,), lo (n,),
-//! hi (n,))`; budgets are iterations, and `seconds` an optional wall-clock limit.
+//! hi (n,))`; a budget is `(iterations, seconds or None)`, an optional wall-clock limit.
 
 use crate::convert::{contiguous, table, Input};
 use crate::errors::{compute, shape_error};
@@ -78,9 +78,50 @@ impl<'a, 'py> FromPyObject<'a, 'py> for TargetsArg {
     }
 }
 
-fn budget(iterations: usize, seconds: Option<f64>) -> Budget {
-    let deadline = seconds.map(|s| Instant::now() + Duration::from_secs_f64(s.clamp(0.0, 1e9)));
-    Budget { iterations, deadline }
+/// A work budget `(iterations, seconds or None)`: iterations, and an optional wall-clock
+/// limit that starts when the computation does.
+pub struct BudgetArg {
+    iterations: usize,
+    seconds: Option<f64>,
+}
+
+impl BudgetArg {
+    fn start(&self) -> Budget {
+        let deadline = self.seconds.map(|s| Instant::now() + Duration::from_secs_f64(s.clamp(0.0, 1e9)));
+        Budget { iterations: self.iterations, deadline }
+    }
+}
+
+impl<'a, 'py> FromPyObject<'a, 'py> for BudgetArg {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        let (iterations, seconds) = obj.extract().map_err(|_: PyErr| {
+            shape_error(obj.py(), "internal: a budget is (iterations >= 0, seconds or None)".into())
+        })?;
+        Ok(BudgetArg { iterations, seconds })
+    }
+}
+
+/// The mass step's problem `(rows, targets, masses)`, `masses = (plain (n,), floor, scale
+/// (n,))`, copied.
+pub struct MassProblemArg {
+    rows: RowsArg,
+    targets: TargetsArg,
+    plain: Vec<f64>,
+    floor: f64,
+    scale: Vec<f64>,
+}
+
+impl<'a, 'py> FromPyObject<'a, 'py> for MassProblemArg {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        let py = obj.py();
+        type Masses<'p> = (PyReadonlyArray1<'p, f64>, f64, PyReadonlyArray1<'p, f64>);
+        let (rows, targets, (plain, floor, scale)): (RowsArg, TargetsArg, Masses<'py>) = obj.extract()?;
+        Ok(MassProblemArg { rows, targets, plain: contiguous(py, &plain)?.to_vec(), floor, scale: contiguous(py, &scale)?.to_vec() })
+    }
 }
 
 fn stop_name(stop: Stop) -> &'static str {
@@ -104,8 +145,9 @@ pub fn regular_conditions<'py>(
     cells: PyReadonlyArray2<'py, i64>,
     options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let input = Input::new(py, &points, &cells, None)?;
-    let (faces, c) = compute(py, OptionsArg::options(options), move |opts| {
+    let opts = OptionsArg::options(options);
+    let input = Input::new(py, &points, &cells, None, &opts)?;
+    let (faces, c) = compute(py, opts, move |opts| {
         let mesh = input.tets("regular weights")?;
         let faces = tetlap::faces::<Tet>(mesh.cells(), mesh.n_vertices(), opts)?;
         let c = regular::conditions(&mesh, &faces.interior, opts)?;
@@ -127,23 +169,22 @@ pub fn regular_conditions<'py>(
     Ok(d)
 }
 
-/// One search ([`regular::search`]) from `u` (n,): `(u, stop, iterations, short_rows
-/// int64, short_y)`, `stop` one of "done", "stalled", "iterations", "deadline".
+/// One search ([`regular::search`]) from `u` (n,) within `budget = (iterations, seconds or
+/// None)`: `(u, stop, iterations, short_rows int64, short_y)`, `stop` one of "done",
+/// "stalled", "iterations", "deadline".
 #[pyfunction]
-#[pyo3(signature = (rows, targets, u, iterations, *, seconds=None, options=None))]
+#[pyo3(signature = (rows, targets, u, budget, *, options=None))]
 pub fn regular_search<'py>(
     py: Python<'py>,
     rows: RowsArg,
     targets: TargetsArg,
     u: PyReadonlyArray1<'py, f64>,
-    iterations: usize,
-    seconds: Option<f64>,
+    budget: BudgetArg,
     options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let mut u = contiguous(py, &u)?.to_vec();
     let (u, out) = compute(py, OptionsArg::options(options), move |opts| {
-        let mut budget = budget(iterations, seconds);
-        let out = regular::search(rows.rows(), &targets.targets(), &mut u, &mut budget, opts)?;
+        let out = regular::search(rows.rows(), &targets.targets(), &mut u, &mut budget.start(), opts)?;
         Ok((u, out))
     })?;
     let (short, y): (Vec<i64>, Vec<f64>) = out.short.iter().map(|&(r, y)| (r as i64, y)).unzip();
@@ -159,31 +200,28 @@ pub fn regular_search<'py>(
     )
 }
 
-/// The mass step ([`regular::keep_masses`]) from `u` (n,), with `masses = (plain (n,),
-/// floor, scale (n,))`: `(u, {"rounds", "iterations", "kept", "lost", "deficit"})`.
+/// The mass step ([`regular::keep_masses`]) from `u` (n,), with `problem = (rows, targets,
+/// masses)` ([`MassProblemArg`]) and `budget = (iterations, seconds or None)`: `(u,
+/// {"rounds", "iterations", "kept", "lost", "deficit"})`.
 #[pyfunction]
-#[pyo3(signature = (points, cells, rows, targets, masses, u, iterations, *, seconds=None, options=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (points, cells, problem, u, budget, *, options=None))]
 pub fn regular_masses<'py>(
     py: Python<'py>,
     points: PyReadonlyArray2<'py, f64>,
     cells: PyReadonlyArray2<'py, i64>,
-    rows: RowsArg,
-    targets: TargetsArg,
-    masses: (PyReadonlyArray1<'py, f64>, f64, PyReadonlyArray1<'py, f64>),
+    problem: MassProblemArg,
     u: PyReadonlyArray1<'py, f64>,
-    iterations: usize,
-    seconds: Option<f64>,
+    budget: BudgetArg,
     options: Option<OptionsArg>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let input = Input::new(py, &points, &cells, None)?;
-    let (plain, floor, scale) = (contiguous(py, &masses.0)?.to_vec(), masses.1, contiguous(py, &masses.2)?.to_vec());
+    let opts = OptionsArg::options(options);
+    let input = Input::new(py, &points, &cells, None, &opts)?;
     let mut u = contiguous(py, &u)?.to_vec();
-    let (u, out) = compute(py, OptionsArg::options(options), move |opts| {
+    let (u, out) = compute(py, opts, move |opts| {
         let mesh = input.tets("regular weights")?;
-        let mut budget = budget(iterations, seconds);
-        let targets_mass = MassTargets { plain: &plain, floor, scale: &scale };
-        let out = regular::keep_masses(&mesh, rows.rows(), &targets.targets(), &targets_mass, &mut u, &mut budget, opts)?;
+        let p = &problem;
+        let masses = MassTargets { plain: &p.plain, floor: p.floor, scale: &p.scale };
+        let out = regular::keep_masses(&mesh, p.rows.rows(), &p.targets.targets(), &masses, &mut u, &mut budget.start(), opts)?;
         Ok((u, out))
     })?;
     let d = PyDict::new(py);

@@ -38,7 +38,7 @@ pub fn non_delaunay_faces(mesh: &TetView, interior: &[[u32; 4]], rtol: f64, opts
     let cells = mesh.cells();
     let m = cells.len() as u32;
     let bad = |f: &[u32; 4]| f[0] >= m || f[2] >= m || f[1] >= 4 || f[3] >= 4;
-    if let Some(k) = crate::threads::position_first(interior, |_, f| bad(f)) {
+    if let Some(k) = crate::threads::position_first(interior, |_, f| bad(f))? {
         return Err(crate::Error::Shape {
             what: format!("interior face {k} must hold [element, corner, element, corner] of this mesh, got {:?}", interior[k]),
         });

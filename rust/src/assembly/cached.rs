@@ -85,12 +85,12 @@ impl<S: Simplex> CachedMesh<S> {
         weights: Option<Vec<f64>>,
         opts: Options,
     ) -> Result<Self> {
-        let mesh = MeshView::<S>::new(&points, dim, &cells)?;
-        let mesh = match &weights {
-            Some(w) => mesh.with_vertex_weights(w)?,
-            None => mesh,
-        };
         let (layout, topology, boundary) = super::install::<S, _>(&opts, || {
+            let mesh = MeshView::<S>::new(&points, dim, &cells)?;
+            let mesh = match &weights {
+                Some(w) => mesh.with_vertex_weights(w)?,
+                None => mesh,
+            };
             let (layout, corners) = Layout::with_corners(&mesh, &opts)?;
             let (topology, boundary) = rayon::join(
                 || Topology::new::<S>(&layout, corners, &opts),

@@ -364,7 +364,7 @@ fn gather_vertices<S: Simplex>(
 /// `indptr`) with a value that is not finite. Every element's own values are finite by
 /// then, so such a value can only be a sum that left the `f64` range.
 pub(crate) fn finite_rows(indptr: &[usize], data: &[f64]) -> Result<()> {
-    match crate::threads::position_first(data, |_, x| !x.is_finite()) {
+    match crate::threads::position_first(data, |_, x| !x.is_finite())? {
         None => Ok(()),
         Some(k) => Err(crate::Error::SumOverflow { vertex: indptr.partition_point(|&p| p <= k) - 1 }),
     }

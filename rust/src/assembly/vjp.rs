@@ -165,7 +165,7 @@ pub struct MeshGradient {
 }
 
 fn check_finite(values: &[f64], what: &'static str) -> Result<()> {
-    match crate::threads::position_first(values, |_, x| !x.is_finite()) {
+    match crate::threads::position_first(values, |_, x| !x.is_finite())? {
         Some(index) => Err(Error::NonFiniteCotangent { what, index, value: values[index] }),
         None => Ok(()),
     }
@@ -449,7 +449,7 @@ pub fn vjp(mesh: &TetView, cotangents: &Cotangents, opts: &Options) -> Result<Me
         opts.cancelled()?;
         let g = gather(&slots, &incidence, &layout, n);
         // per-tet values are finite; only a sum can overflow
-        let bad = crate::threads::position_first(&g.points, |_, x| !x.is_finite())
+        let bad = crate::threads::position_first(&g.points, |_, x| !x.is_finite())?
             .map(|k| k / dim)
             .or_else(|| g.weights.as_ref().and_then(|w| w.iter().position(|x| !x.is_finite())));
         if let Some(vertex) = bad {
