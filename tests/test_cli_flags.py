@@ -199,6 +199,7 @@ def test_library_margin_and_heat_time_that_overflow_are_option_errors():
 # ---- item 8: a file name that is not UTF-8 -----------------------------------------------
 
 
+@pytest.mark.slow
 def test_a_file_name_that_is_not_utf8_is_shown_escaped_and_plots(tmp_path, capsys):
     """Issue 30.8: ``info --plot`` on such a file printed the report, then a matplotlib
     traceback (the title held a lone surrogate)."""

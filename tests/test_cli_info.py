@@ -216,6 +216,7 @@ def test_plot_without_matplotlib_fails_before_any_analysis(monkeypatch, tmp_path
                                  'pip install ".[experiments]"\n')
 
 
+@pytest.mark.slow
 def test_plots_are_named_after_the_mesh(tmp_path, monkeypatch, capsys):
     pytest.importorskip("matplotlib")
     pytest.importorskip("meshio")

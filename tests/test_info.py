@@ -403,6 +403,7 @@ def test_spread_bins_show_the_distribution_where_linear_bins_show_one_spike():
     assert np.histogram(m, bins=info.spread_bins(m)[0])[0].sum() == len(m)
 
 
+@pytest.mark.slow
 def test_plot_names_files_and_titles_after_the_mesh(tmp_path, monkeypatch):
     pytest.importorskip("matplotlib")
     from matplotlib.figure import Figure

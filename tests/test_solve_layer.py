@@ -73,6 +73,7 @@ def test_the_diagonal_dominance_certificate():
     assert _linear.certified(sp.csr_array(np.array([[1.0, 1.0], [1.0, 1.0]])))  # PSD, signs free
 
 
+@pytest.mark.slow
 def test_an_indefinite_dual_gets_a_checked_direct_solution_or_an_error(bunny, monkeypatch):
     V, T = bunny
     L = tetlap.laplacian(V, T, "dual")
