@@ -53,9 +53,10 @@ weights : (n,) array-like of real numbers, optional
     of a regular triangulation (a power diagram). ``None`` or zeros: the plain dual.
     Tets only.
 degenerate : {"raise", "skip"}, default "raise"
-    A zero-volume element (or one so flat that a value overflows float64) raises
-    :class:`tetlap.DegenerateElementError` naming it, or with ``"skip"`` contributes
-    nothing (its edges stay in the pattern).
+    A zero-volume element (exactly flat), or one whose values leave the float64 range
+    (a needle or a flat tet whose exact weights or masses overflow; see README
+    "Accuracy"), raises :class:`tetlap.DegenerateElementError` naming it, or with
+    ``"skip"`` contributes nothing to what it fails (its edges stay in the pattern).
 threads : int, optional
     Worker threads, from 1 to ``tetlap.MAX_THREADS`` (four per core); ``None`` uses
     ``RAYON_NUM_THREADS`` if it is set (0 means all cores; a value outside 0 to

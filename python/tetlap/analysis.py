@@ -431,7 +431,7 @@ def _element_certificate(S, V, T, scale: float, tol: np.ndarray, kind, assembled
             continue
         if (gaps > tol).any():
             return None
-        W = assembly.element_contributions(V, T, candidate, degenerate="skip")
+        W = assembly._element_laplacians(V, T, candidate)
         verdict, _, details = _core.element_certificate(T, n, W, tol - gaps)
         if not verdict:
             return None

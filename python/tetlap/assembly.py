@@ -259,6 +259,27 @@ def element_contributions(V, T=None, kind="primal", *, boundary="circumcentric",
     return _assemble(("contributions", kind), V, T, weights, boundary, degenerate, threads)[0]
 
 
+def _operators_skipping(V, T, laplacian, mass):
+    """``(L, M, skipped)``: :func:`operators` with ``degenerate="skip"`` and the (k, 2)
+    int64 array of the tets it left out, ascending: ``[t, 0]`` for a flat tet, ``[t, 1]``
+    for one whose values leave the float64 range. ``V``, ``T`` validated."""
+    L, M, skipped = _core.assemble(V, T, ("operators_skipping", laplacian, mass),
+                                   options=_options("circumcentric", "skip", None))
+    n = V.shape[0]
+    return _sparse.csr(L, n), _sparse.mass(M, n), skipped
+
+
+def _element_laplacians(V, T, kind) -> np.ndarray:
+    """(m, 10) for tets, (m, 6) for triangles: each element's edge weights (as
+    :func:`element_contributions`) then its diagonal entries ``L_aa`` at its corners, with
+    ``degenerate="skip"`` (zeros for a dropped element). The primal's entries are
+    ``-Vol |grad lambda_a|^2`` computed on their own, accurate where minus the sum of the
+    corner's weights cancels (a needle); the dual's are minus that sum. ``V``, ``T``
+    validated."""
+    return _core.assemble(V, T, ("element_laplacians", kind),
+                          options=_options("circumcentric", "skip", None))
+
+
 #: The name of :func:`element_contributions` until 0.1 (it returns triangles' weights too),
 #: kept for one release.
 tet_contributions = element_contributions

@@ -10,7 +10,11 @@ versioned by :data:`SCHEMA_VERSION`.
 A mesh whose tet volumes leave the float64 range (coordinates beyond about ``1e100`` or
 below ``1e-100`` for a tet of unit shape) is refused with
 :class:`tetlap.DegenerateElementError` before any work, as the assembly refuses it: its
-volumes, masses and "degenerate" counts would be wrong.
+volumes, masses and "degenerate" counts would be wrong. The operators are assembled with
+``degenerate="skip"``: the tets they leave out (flat ones, and those whose values leave
+the float64 range, such as a needle whose dual weights overflow) are counted and named
+in each operator's section (``n_skipped_tets``, ``skipped_tets``), since the properties
+reported are then those of the operator without them.
 
 Example
 -------
@@ -109,12 +113,13 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
     result = {"schema_version": SCHEMA_VERSION, "mesh": summary}
     for lap, mass in PAIRS:
         step(f"{lap} Laplacian and {mass} mass")
-        L, M = assembly.operators(V, T, lap, mass, degenerate="skip")
+        L, M, skipped = assembly._operators_skipping(V, T, lap, mass)
         step(f"checks of the {lap} Laplacian")
         # L is laplacian(V, T, lap, degenerate="skip") bitwise: the certificates need no gap
         result[lap] = _check(L, V, T, M, kind=lap, negative_tol=NEGATIVE_TOL, nsd=nsd,
                              boundary=boundary, mesh_volume=result["mesh"]["mesh_volume"],
                              assembled=True).to_dict()
+        result[lap].update(_skipped(skipped, result[lap]["notes"]))
     result["regular"] = None
     if regular:
         step("regular weights")
@@ -126,6 +131,25 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
             result["regular"] = _regular_section(V, T, result, regular_time_limit)
     step.done()
     return result
+
+
+#: How many skipped tets the report names.
+SKIPPED_LISTED = 10
+
+
+def _skipped(skipped: np.ndarray, notes: list) -> dict:
+    """The report's fields on the tets an operator left out (``degenerate="skip"``; the
+    (k, 2) array of :func:`tetlap.assembly._operators_skipping`), with a note when there
+    are any: its other fields are those of the operator without them."""
+    tets = [int(t) for t in skipped[:SKIPPED_LISTED, 0]]
+    out_of_range = int((skipped[:, 1] == 1).sum())
+    if len(skipped):
+        named = ", ".join(map(str, tets)) + (", ..." if len(skipped) > len(tets) else "")
+        notes.append(f"{len(skipped)} tets skipped ({len(skipped) - out_of_range} flat, "
+                     f"{out_of_range} with values beyond the float64 range): {named}; the "
+                     "properties are those of the operator without them")
+    return {"n_skipped_tets": len(skipped), "n_skipped_out_of_range": out_of_range,
+            "skipped_tets": tets}
 
 
 def _regular_section(V, T, result, time_limit) -> dict:

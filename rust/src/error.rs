@@ -32,9 +32,10 @@ pub enum Error {
     /// An element has exactly zero volume (a triangle: zero area; its vertices are
     /// affinely dependent).
     Degenerate { element: usize },
-    /// An element's values leave the `f64` range (a volume beyond it, or dual weights of a
-    /// tet so flat that they overflow): they cannot be computed to the documented accuracy
-    /// ([`crate::element::ACCURACY`]).
+    /// A kind of an element's values leaves the normal `f64` range (a volume beyond it, or
+    /// the weights or masses of a needle or a flat tet), or, for a tet immersed in R^d,
+    /// `d > 3`, they cannot be computed to the documented accuracy
+    /// ([`crate::element::ACCURACY`]; the rule is in `crate::element`'s docs).
     NonFiniteResult { element: usize },
     /// An element's values are fine, but their products with what a caller gave (the
     /// cotangents of [`crate::vjp`], such as a function `f` of the Dirichlet energy) leave
@@ -128,8 +129,10 @@ impl fmt::Display for Error {
             ),
             Error::NonFiniteResult { element } => write!(
                 f,
-                "element {element}: its values leave the f64 range (a volume beyond it, or so \
-                 flat a tet that its dual weights overflow); Degenerate::Skip drops it"
+                "element {element}: its values leave the f64 range (normal magnitudes 2.2e-308 \
+                 to 1.8e308: a volume beyond it, or the weights or masses of a needle or a flat \
+                 tet beyond it) or, immersed in R^d, cannot be computed to the documented \
+                 accuracy; Degenerate::Skip drops it"
             ),
             Error::Overflow { element } => write!(
                 f,

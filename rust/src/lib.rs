@@ -76,7 +76,10 @@ pub use assembly::vjp as derivatives;
 pub use assembly::vjp::{vjp, Columns, Cotangents, LaplacianCotangent, MassCotangent, MeshGradient};
 pub use assembly::gradients;
 pub use assembly::{dual_centres, DualCentres, TetDual};
-pub use assembly::{contributions, edge_weights, laplacian, mass, operators, triplets, CachedMesh, Topology, Update};
+pub use assembly::{
+    contributions, edge_weights, element_laplacians, laplacian, mass, operators, operators_skipping, triplets, CachedMesh, Skipped,
+    Skips, Topology, Update,
+};
 pub use element::tet::{inside_circumsphere, tet_quality, TetQuality, DELAUNAY_RTOL};
 pub use element::{local_tet, local_tri, LocalTet, LocalTri, Simplex, Tet, Tri, Values};
 pub use error::{Error, Feature, Result};

@@ -120,15 +120,25 @@ def info_report(result: dict, source: str) -> str:
         ("mass total (vs volume)", f"{p['mass_total']:.10g}", f"{d['mass_total']:.10g}"),
         ("mass min", _cell(p["mass_min"]), _cell(d["mass_min"])),
         ("vertices with mass <= 0", str(p["mass_nonpositive"]), str(d["mass_nonpositive"])),
+        ("tets skipped", str(p["n_skipped_tets"]), str(d["n_skipped_tets"])),
     ]
     widths = [max(len(r[k]) for r in rows + [("property", "primal", "dual")]) for k in range(3)]
     lines += ["", f"{'property':<{widths[0]}}  {'primal':>{widths[1]}}  {'dual':>{widths[2]}}"]
     lines += [f"{label:<{widths[0]}}  {a:>{widths[1]}}  {b:>{widths[2]}}" for label, a, b in rows]
     lines += ["(mass: barycentric with the primal, circumcentric with the dual)", ""]
     lines += [f"semidefinite ({kind}): {r['nsd_method']}" for kind, r in (("primal", p), ("dual", d))]
+    lines += [_skipped_line(kind, r) for kind, r in (("primal", p), ("dual", d)) if r["n_skipped_tets"]]
     if result.get("regular") is not None:
         lines += ["", regular_section(result["regular"])]
     return "\n".join(lines)
+
+
+def _skipped_line(kind: str, r: dict) -> str:
+    """Which tets an operator of ``tetlap info`` left out, and why."""
+    n, far = r["n_skipped_tets"], r["n_skipped_out_of_range"]
+    named = ", ".join(map(str, r["skipped_tets"])) + (", ..." if n > len(r["skipped_tets"]) else "")
+    return (f"skipped ({kind}): {n} tets ({n - far} flat, {far} with values beyond the float64 "
+            f"range): {named}; the properties above are those of the operator without them")
 
 
 def regular_section(r: dict) -> str:

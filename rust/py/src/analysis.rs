@@ -58,34 +58,45 @@ pub fn edges<'py>(py: Python<'py>, cells: PyReadonlyArray2<'py, i64>, n: usize, 
     table(py, &compute(py, opts, move |opts| input.run(EdgesJob, opts))?)
 }
 
-/// The element certificate of [`tetlap::negative_semidefinite_by_elements`] for edge
-/// weights given row-major, one row of `S::EDGES.len()` per element.
+/// The element certificate of [`tetlap::negative_semidefinite_by_elements`] for element
+/// Laplacians given row-major, one row per element: its `S::EDGES.len()` edge weights, then
+/// (when `diagonal`) its `S::CORNERS` diagonal entries, else minus the weights' sums.
 struct ElementCertificateJob {
-    weights: Vec<f64>,
+    rows: Vec<f64>,
+    diagonal: bool,
     tol: Vec<f64>,
 }
 
 impl CellsJob for ElementCertificateJob {
     type Output = Semidefinite;
     fn run<S: Simplex>(self, cells: &[S::Cell], n: usize, opts: &Options) -> tetlap::Result<Semidefinite> {
-        let weights: Vec<S::EdgeValues> = self
-            .weights
-            .chunks_exact(S::EDGES.len())
+        let (e, k) = (S::EDGES.len(), S::CORNERS);
+        let laplacians: Vec<(S::EdgeValues, S::CornerValues)> = self
+            .rows
+            .chunks_exact(if self.diagonal { e + k } else { e })
             .map(|row| {
                 let mut w = S::EdgeValues::default();
-                w.as_mut().copy_from_slice(row);
-                w
+                w.as_mut().copy_from_slice(&row[..e]);
+                let d = if self.diagonal {
+                    let mut d = S::CornerValues::default();
+                    d.as_mut().copy_from_slice(&row[e..]);
+                    d
+                } else {
+                    tetlap::element::corner_sums::<S>(&w)
+                };
+                (w, d)
             })
             .collect();
-        tetlap::negative_semidefinite_by_elements::<S>(cells, n, &weights, &self.tol, opts)
+        tetlap::negative_semidefinite_by_elements::<S>(cells, n, &laplacians, &self.tol, opts)
     }
 }
 
 /// `(verdict, name, details)` of the element certificate: `-L = sum_t K_t` with the
-/// element edge weights `weights` (m, 6) for tets or (m, 3) for triangles, local edge order
-/// lexicographic, up to the per-vertex tolerances `tol` (n,). `verdict` is True ("element
-/// certificate", details `groups`, `largest`) or None ("undetermined", details
-/// `uncovered`).
+/// element Laplacians `weights`: (m, 6) edge weights for tets or (m, 3) for triangles,
+/// local edge order lexicographic (the diagonal minus their sums), or (m, 10) / (m, 6)
+/// with the element's diagonal entries after them; up to the per-vertex tolerances `tol`
+/// (n,). `verdict` is True ("element certificate", details `groups`, `largest`) or None
+/// ("undetermined", details `uncovered`).
 #[pyfunction]
 #[pyo3(signature = (cells, n, weights, tol, *, options=None))]
 pub fn element_certificate<'py>(
@@ -98,11 +109,14 @@ pub fn element_certificate<'py>(
 ) -> PyResult<Bound<'py, PyTuple>> {
     let opts = OptionsArg::options(options);
     let input = CellsInput::new(py, &cells, n, &opts)?;
-    let edges = if cells.shape()[1] == 4 { 6 } else { 3 };
-    if weights.shape() != [input.cells.len(), edges] {
-        return Err(shape_error(py, format!("weights must have shape ({}, {edges}), got {:?}", input.cells.len(), weights.shape())));
+    let (edges, corners) = if cells.shape()[1] == 4 { (6, 4) } else { (3, 3) };
+    let m = input.cells.len();
+    if weights.shape() != [m, edges] && weights.shape() != [m, edges + corners] {
+        let shapes = format!("({m}, {edges}) or ({m}, {})", edges + corners);
+        return Err(shape_error(py, format!("weights must have shape {shapes}, got {:?}", weights.shape())));
     }
-    let job = ElementCertificateJob { weights: contiguous(py, &weights)?.to_vec(), tol: contiguous(py, &tol)?.to_vec() };
+    let diagonal = weights.shape()[1] == edges + corners;
+    let job = ElementCertificateJob { rows: contiguous(py, &weights)?.to_vec(), diagonal, tol: contiguous(py, &tol)?.to_vec() };
     verdict(py, compute(py, opts, move |opts| input.run(job, opts))?)
 }
 

@@ -168,6 +168,9 @@ pub enum Response {
     Matrix(Csr),
     Mass(Mass),
     Operators(Csr, Mass),
+    /// The operators and the elements skipped: `(element, 0)` flat, `(element, 1)` values
+    /// beyond the range.
+    OperatorsSkipping(Csr, Mass, Vec<[i64; 2]>),
     /// Per-element values, row-major, and the row width.
     PerElement(Vec<f64>, usize),
     Triplets(Coo),
@@ -185,9 +188,19 @@ impl Job for Request {
                 let (l, m) = tetlap::operators(mesh, lap, mass, opts)?;
                 Response::Operators(l, m)
             }
+            Request::OperatorsSkipping(lap, mass) => {
+                let (l, m, skipped) = tetlap::operators_skipping(mesh, lap, mass, opts)?;
+                let code = |s: tetlap::Skipped| if s == tetlap::Skipped::Degenerate { 0 } else { 1 };
+                Response::OperatorsSkipping(l, m, skipped.into_iter().map(|(t, s)| [t as i64, code(s)]).collect())
+            }
             Request::Contributions(kind) => {
                 let w = tetlap::contributions(mesh, kind, opts)?;
                 Response::PerElement(w.iter().flat_map(|v| v.as_ref().iter().copied()).collect(), S::EDGES.len())
+            }
+            Request::ElementLaplacians(kind) => {
+                let l = tetlap::element_laplacians(mesh, kind, opts)?;
+                let rows = l.iter().flat_map(|(w, d)| w.as_ref().iter().chain(d.as_ref()).copied()).collect();
+                Response::PerElement(rows, S::EDGES.len() + S::CORNERS)
             }
             Request::Triplets(kind) => Response::Triplets(tetlap::triplets(mesh, kind, opts)?),
             Request::EdgeWeights(kind) => {
@@ -208,6 +221,11 @@ impl Response {
             Response::Mass(m) => mass_arrays(py, m)?.into_any(),
             Response::Operators(l, m) => {
                 PyTuple::new(py, [csr_arrays(py, l)?.into_any(), mass_arrays(py, m)?.into_any()])?.into_any()
+            }
+            Response::OperatorsSkipping(l, m, skipped) => {
+                let k = skipped.len();
+                let skipped = PyArray1::from_iter(py, skipped.into_iter().flatten()).reshape([k, 2])?.into_any();
+                PyTuple::new(py, [csr_arrays(py, l)?.into_any(), mass_arrays(py, m)?.into_any(), skipped])?.into_any()
             }
             Response::PerElement(values, width) => {
                 let m = values.len() / width;

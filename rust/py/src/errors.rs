@@ -109,9 +109,10 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             py,
             &c.degenerate,
             format!(
-                "element {element}: its values leave the float64 range (a volume or area beyond \
-                 it, or so flat an element that its dual weights overflow); pass \
-                 degenerate=\"skip\" to drop it"
+                "element {element}: its values leave the float64 range (normal magnitudes \
+                 2.2e-308 to 1.8e308: a volume beyond it, or the weights or masses of a needle or \
+                 a flat tet beyond it) or, immersed in R^d, cannot be computed to the documented \
+                 accuracy; pass degenerate=\"skip\" to drop it"
             ),
             &[("element", i(element))],
         ),

@@ -54,9 +54,12 @@ mod _core {
 
     /// One pass of the one-shot API: `request` is `("laplacian", kind)` (CSR arrays
     /// `(data, indices, indptr)`), `("mass", kind)` (`("lumped", diagonal)` or
-    /// `("csr", arrays)`), `("operators", kind, mass_kind)` (both), `("contributions",
-    /// kind)` (`(m, 6)` or `(m, 3)`), `("triplets", kind)` (`(rows, cols, vals)`) or
-    /// `("edge_weights", kind)` (`(edges (E, 2), weights (E,))`).
+    /// `("csr", arrays)`), `("operators", kind, mass_kind)` (both),
+    /// `("operators_skipping", kind, mass_kind)` (both and the `(k, 2)` int64 skipped
+    /// elements: `[element, 0]` flat, `[element, 1]` beyond the range), `("contributions",
+    /// kind)` (`(m, 6)` or `(m, 3)`), `("element_laplacians", kind)` (`(m, 10)` or `(m, 6)`:
+    /// the weights, then the element's diagonal entries), `("triplets", kind)` (`(rows, cols,
+    /// vals)`) or `("edge_weights", kind)` (`(edges (E, 2), weights (E,))`).
     #[pyfunction]
     #[pyo3(signature = (points, cells, request, *, weights=None, options=None))]
     fn assemble<'py>(

@@ -135,12 +135,15 @@ fn threads(obj: Borrowed<'_, '_, PyAny>) -> PyResult<Option<usize>> {
 
 /// What to compute in one pass of [`tetlap`]'s one-shot API, as a tuple:
 /// `("laplacian", kind)`, `("mass", kind)`, `("operators", kind, mass_kind)`,
-/// `("contributions", kind)`, `("triplets", kind)` or `("edge_weights", kind)`.
+/// `("operators_skipping", kind, mass_kind)`, `("contributions", kind)`,
+/// `("element_laplacians", kind)`, `("triplets", kind)` or `("edge_weights", kind)`.
 pub enum Request {
     Laplacian(LaplacianKind),
     Mass(MassKind),
     Operators(LaplacianKind, MassKind),
+    OperatorsSkipping(LaplacianKind, MassKind),
     Contributions(LaplacianKind),
+    ElementLaplacians(LaplacianKind),
     Triplets(LaplacianKind),
     EdgeWeights(LaplacianKind),
 }
@@ -157,7 +160,9 @@ impl<'a, 'py> FromPyObject<'a, 'py> for Request {
             ("laplacian", 2) => Request::Laplacian(kind()?),
             ("mass", 2) => Request::Mass(t.get_item(1)?.extract::<MassArg>()?.0),
             ("operators", 3) => Request::Operators(kind()?, t.get_item(2)?.extract::<MassArg>()?.0),
+            ("operators_skipping", 3) => Request::OperatorsSkipping(kind()?, t.get_item(2)?.extract::<MassArg>()?.0),
             ("contributions", 2) => Request::Contributions(kind()?),
+            ("element_laplacians", 2) => Request::ElementLaplacians(kind()?),
             ("triplets", 2) => Request::Triplets(kind()?),
             ("edge_weights", 2) => Request::EdgeWeights(kind()?),
             _ => return Err(bad()),

@@ -1,8 +1,10 @@
 //! Is a sum of element matrices negative semidefinite? A certificate from the elements.
 //!
 //! Every operator of the crate is a sum of per-element matrices: with the element's edge
-//! weights `w_ab` (local order [`Simplex::EDGES`]), `-L = sum_t K_t` where
-//! `K_t = sum_ab w_ab (e_a - e_b)(e_a - e_b)^T` lives on the element's corners. A sum of
+//! weights `w_ab` (local order [`Simplex::EDGES`]) and diagonal entries `d_a`, `-L = sum_t
+//! K_t` where `K_t` (off-diagonals `-w_ab`, diagonal `-d_a`: for the dual `d_a = -sum_b
+//! w_ab`, so that `K_t = sum_ab w_ab (e_a - e_b)(e_a - e_b)^T`; for the primal `d_a` is
+//! computed on its own, see [`crate::element_laplacians`]) lives on the element's corners. A sum of
 //! positive semidefinite matrices is positive semidefinite, so:
 //!
 //! * every `K_t` is checked (a Cholesky factorisation of `K_t + tau I` on its corners);
@@ -38,18 +40,19 @@ const WORK_PER_ELEMENT: f64 = 50_000.0;
 
 /// Whether `-L = sum_t K_t` is negative semidefinite up to the tolerances `tol` (one per
 /// vertex, finite and `>= 0`: whether `-L + diag(tol)` is positive semidefinite), from the
-/// element edge weights `weights` (one entry per element of `cells`, local order
-/// [`Simplex::EDGES`]) over `n` vertices: [`Semidefinite::ElementCertificate`] or
+/// element Laplacians `laplacians` (one `(edge weights, diagonal entries)` per element of
+/// `cells`, local order [`Simplex::EDGES`], as [`crate::element_laplacians`] returns them)
+/// over `n` vertices: [`Semidefinite::ElementCertificate`] or
 /// [`Semidefinite::Undetermined`]; [`crate::Error::Shape`] for tolerances of the wrong
 /// length or value.
 ///
 /// ```
-/// use tetlap::{contributions, negative_semidefinite_by_elements, LaplacianKind, Options, Semidefinite, Tet, TetView};
+/// use tetlap::{element_laplacians, negative_semidefinite_by_elements, LaplacianKind, Options, Semidefinite, Tet, TetView};
 /// let points = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0];
 /// let cells = [[0, 1, 2, 3], [1, 2, 3, 4]];
 /// let mesh = TetView::new(&points, 3, &cells)?;
 /// let opts = Options::default();
-/// let primal = contributions(&mesh, LaplacianKind::Primal, &opts)?;
+/// let primal = element_laplacians(&mesh, LaplacianKind::Primal, &opts)?;
 /// let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &primal, &[1e-12; 5], &opts)?;
 /// // every element matrix of the primal is a Gram matrix: no group is needed
 /// assert_eq!(answer, Semidefinite::ElementCertificate { groups: 0, largest: 1 });
@@ -58,16 +61,16 @@ const WORK_PER_ELEMENT: f64 = 50_000.0;
 pub fn negative_semidefinite_by_elements<S: Simplex>(
     cells: &[S::Cell],
     n: usize,
-    weights: &[S::EdgeValues],
+    laplacians: &[(S::EdgeValues, S::CornerValues)],
     tol: &[f64],
     opts: &Options,
 ) -> Result<Semidefinite> {
-    assert_eq!(cells.len(), weights.len(), "one weight vector per element");
+    assert_eq!(cells.len(), laplacians.len(), "one element Laplacian per element");
     check_tolerances(tol, n)?;
-    opts.install(|| certify::<S>(cells, n, weights, tol, opts))
+    opts.install(|| certify::<S>(cells, n, laplacians, tol, opts))
 }
 
-fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[S::EdgeValues], tol: &[f64], opts: &Options) -> Result<Semidefinite> {
+fn certify<S: Simplex>(cells: &[S::Cell], n: usize, weights: &[(S::EdgeValues, S::CornerValues)], tol: &[f64], opts: &Options) -> Result<Semidefinite> {
     let mut valence = vec![0usize; n];
     for cell in cells {
         for &v in cell.as_ref() {
@@ -167,18 +170,26 @@ fn group_vertices<S: Simplex>(cells: &[S::Cell], elements: &[u32]) -> Vec<u32> {
 
 /// Whether the summed element matrices of `elements` plus `diag(tau)` on their sorted
 /// `vertices` have a Cholesky factorisation.
-fn group_passes<S: Simplex>(cells: &[S::Cell], weights: &[S::EdgeValues], elements: &[u32], vertices: &[u32], tau: &[f64]) -> bool {
+fn group_passes<S: Simplex>(
+    cells: &[S::Cell],
+    weights: &[(S::EdgeValues, S::CornerValues)],
+    elements: &[u32],
+    vertices: &[u32],
+    tau: &[f64],
+) -> bool {
     let size = vertices.len();
     let mut a = vec![0.0; size * size];
     for &e in elements {
         let cell = cells[e as usize].as_ref();
         let local: Vec<usize> = cell.iter().map(|v| vertices.binary_search(v).expect("a vertex of the group")).collect();
-        for (&(x, y), &w) in S::EDGES.iter().zip(weights[e as usize].as_ref()) {
+        let (w, d) = &weights[e as usize];
+        for (&(x, y), &w) in S::EDGES.iter().zip(w.as_ref()) {
             let (i, j) = (local[x], local[y]);
-            a[i * size + i] += w;
-            a[j * size + j] += w;
             a[i * size + j] -= w;
             a[j * size + i] -= w;
+        }
+        for (&i, &d) in local.iter().zip(d.as_ref()) {
+            a[i * size + i] -= d;
         }
     }
     let shift: Vec<f64> = vertices.iter().map(|&v| tau[v as usize]).collect();
@@ -190,10 +201,27 @@ mod tests {
     use super::*;
     use crate::element::Tet;
 
-    /// Edge weights making `K` the 4x4 graph Laplacian with weight `w` on every edge but
-    /// edge 0, which gets `w0`.
-    fn weights(w0: f64, w: f64) -> [f64; 6] {
-        [w0, w, w, w, w, w]
+    /// The element Laplacian making `K` the 4x4 graph Laplacian with weight `w` on every
+    /// edge but edge 0, which gets `w0`.
+    fn weights(w0: f64, w: f64) -> ([f64; 6], [f64; 4]) {
+        let w = [w0, w, w, w, w, w];
+        (w, crate::element::corner_sums::<Tet>(&w))
+    }
+
+    #[test]
+    fn a_needle_is_certified_with_its_own_diagonal_entries() {
+        // the apex's weights are about 0.1 and cancel to its diagonal entry -1.7e-21:
+        // minus their rounded sum is no Gram matrix's diagonal, the element's own entry is
+        let points = [0.0, 0.0, 0.0, 1.0, 0.0, 0.5, 0.0, 1.0, 0.25, 0.3, 0.2, 1e20];
+        let cells = [[0, 1, 2, 3]];
+        let opts = Options::default();
+        let mesh = crate::TetView::new(&points, 3, &cells).unwrap();
+        let primal = crate::element_laplacians(&mesh, crate::LaplacianKind::Primal, &opts).unwrap();
+        let tol = primal[0].1.map(|d| 1e-9 * d.abs());
+        let answer = negative_semidefinite_by_elements::<Tet>(&cells, 4, &primal, &tol, &opts).unwrap();
+        assert_eq!(answer, Semidefinite::ElementCertificate { groups: 0, largest: 1 });
+        let summed = [(primal[0].0, crate::element::corner_sums::<Tet>(&primal[0].0))];
+        assert!(!group_passes::<Tet>(&cells, &summed, &[0], &[0, 1, 2, 3], &tol));
     }
 
     #[test]
@@ -229,7 +257,7 @@ mod tests {
         // element 1 contributes nothing (skipped as degenerate): vertex 4 has a zero row,
         // and a tolerance relative to its diagonal is zero
         let cells = [[0, 1, 2, 3], [1, 2, 3, 4]];
-        let w = [weights(1.0, 1.0), [0.0; 6]];
+        let w = [weights(1.0, 1.0), ([0.0; 6], [0.0; 4])];
         let tol = [1e-9, 1e-9, 1e-9, 1e-9, 0.0];
         let answer = negative_semidefinite_by_elements::<Tet>(&cells, 5, &w, &tol, &Options::default()).unwrap();
         assert_eq!(answer, Semidefinite::ElementCertificate { groups: 0, largest: 1 });

@@ -1,7 +1,7 @@
 //! Geometry of a tet mesh as a quality report: the per-tet quality of every tet and the
 //! local Delaunay test of every interior face (the kernels are in [`crate::element::tet`]).
 
-use crate::element::tet::{inside_circumsphere, tet_quality, TetQuality};
+use crate::element::tet::{inside_circumsphere, quality_from_frame, tet_quality, tet_quality_exact, TetQuality};
 use crate::error::Result;
 use crate::mesh::TetView;
 use crate::options::Options;
@@ -18,7 +18,14 @@ pub fn quality(mesh: &TetView, opts: &Options) -> Result<Vec<TetQuality>> {
             |scratch, (c, chunk)| {
                 opts.cancelled()?;
                 for (k, slot) in chunk.iter_mut().enumerate() {
-                    *slot = tet_quality(&mesh.local(c * CHUNK + k, scratch), signed);
+                    let t = c * CHUNK + k;
+                    let local = mesh.local(t, scratch);
+                    *slot = if !signed || quality_from_frame(&local) {
+                        tet_quality(&local, signed)
+                    } else {
+                        let corner = |v: u32| &mesh.points()[v as usize * 3..][..3];
+                        tet_quality_exact(mesh.cells()[t].map(corner), signed)
+                    };
                 }
                 Ok(())
             },

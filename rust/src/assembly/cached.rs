@@ -9,8 +9,8 @@ use crate::error::{Error, Result};
 use crate::assembly::order::Layout;
 use crate::mesh::MeshView;
 use crate::options::{LaplacianKind, MassKind, Options};
-use crate::assembly::pass::{values, values_of, FirstFault};
-use crate::element::{Simplex, Tet};
+use crate::assembly::pass::{values, values_of, FirstFault, Slots};
+use crate::element::{LaplacianValues, Simplex, Tet};
 use crate::assembly::pattern::Topology;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -67,7 +67,7 @@ pub struct CachedMesh<S: Simplex = Tet> {
     boundary: Option<Vec<bool>>,
     opts: Options,
     topology: Topology,
-    laplacians: Vec<Cached<LaplacianKind, S::EdgeValues>>,
+    laplacians: Vec<Cached<LaplacianKind, LaplacianValues<S>>>,
     masses: Vec<Cached<MassKind, S::CornerValues>>,
 }
 
@@ -167,8 +167,11 @@ impl<S: Simplex> CachedMesh<S> {
         }
         let (elements, topo, opts) = (self.elements(), &self.topology, &self.opts);
         let cached = super::install::<S, _>(opts, || {
-            let mut w = vec![S::EdgeValues::default(); self.layout.cells.len()];
-            values(&elements, opts, Request { laplacian: Some(kind), mass: None }, Some(&mut w), None)?;
+            let m = self.layout.cells.len();
+            let (mut w, mut d) = (vec![Default::default(); m], vec![Default::default(); m]);
+            let out = Slots { w: Some(&mut w), d: Some(&mut d), m: None };
+            values(&elements, opts, Request { laplacian: Some(kind), mass: None }, out)?;
+            let w: Vec<_> = w.into_iter().zip(d).collect();
             let values = laplacian_values::<S>(topo, &w, None, vec![0.0; topo.nnz()], opts)?;
             finite_rows(topo.indptr(), &values)?;
             Ok(Cached { kind, per_element: w, values })
@@ -197,7 +200,7 @@ impl<S: Simplex> CachedMesh<S> {
         let (elements, topo, opts) = (self.elements(), &self.topology, &self.opts);
         let cached = super::install::<S, _>(opts, || {
             let mut m = vec![S::CornerValues::default(); self.layout.cells.len()];
-            values(&elements, opts, Request { laplacian: None, mass: Some(kind) }, None, Some(&mut m))?;
+            values(&elements, opts, Request { laplacian: None, mass: Some(kind) }, Slots { w: None, d: None, m: Some(&mut m) })?;
             let values = mass_values::<S>(topo, kind, &m, None, vec![], opts)?;
             match kind {
                 MassKind::Fem => finite_rows(topo.indptr(), &values)?,
@@ -392,20 +395,25 @@ impl<S: Simplex> CachedMesh<S> {
         &self,
         elements: &Elements<S>,
         listed: Option<&[u32]>,
-    ) -> Result<(Vec<Vec<S::EdgeValues>>, Vec<Vec<S::CornerValues>>)> {
+    ) -> Result<(Vec<Vec<LaplacianValues<S>>>, Vec<Vec<S::CornerValues>>)> {
         let count = listed.map_or(self.layout.cells.len(), <[u32]>::len);
-        let mut l_new: Vec<Vec<S::EdgeValues>> = self.laplacians.iter().map(|_| vec![Default::default(); count]).collect();
+        let laplacian = || (vec![Default::default(); count], vec![Default::default(); count]);
+        let mut l_new: Vec<(Vec<S::EdgeValues>, Vec<S::CornerValues>)> = self.laplacians.iter().map(|_| laplacian()).collect();
         let mut m_new: Vec<Vec<S::CornerValues>> = self.masses.iter().map(|_| vec![Default::default(); count]).collect();
         let mut first = FirstFault::default();
         let (mut ls, mut ms) = (l_new.iter_mut(), m_new.iter_mut());
         for i in 0..self.laplacians.len().max(self.masses.len()) {
             let (l, m) = (self.laplacians.get(i), self.masses.get(i));
             let request = Request { laplacian: l.map(|c| c.kind), mass: m.map(|c| c.kind) };
-            let (w, m) = (l.and(ls.next()).map(|v| &mut v[..]), m.and(ms.next()).map(|v| &mut v[..]));
-            first.merge(values_of(elements, &self.opts, listed, request, w, m)?);
+            let (w, d) = match l.and(ls.next()) {
+                Some((w, d)) => (Some(&mut w[..]), Some(&mut d[..])),
+                None => (None, None),
+            };
+            let out = Slots { w, d, m: m.and(ms.next()).map(|v| &mut v[..]) };
+            first.merge(values_of(elements, &self.opts, listed, request, out)?);
         }
-        first.into_result(self.opts.degenerate)?;
-        Ok((l_new, m_new))
+        first.check(self.opts.degenerate)?;
+        Ok((l_new.into_iter().map(|(w, d)| w.into_iter().zip(d).collect()).collect(), m_new))
     }
 }
 

@@ -23,7 +23,7 @@ pub mod vjp;
 pub use cached::{CachedMesh, Update};
 pub use centres::{dual_centres, DualCentres, TetDual};
 pub use gradient::gradients;
-pub use one_shot::{contributions, edge_weights, laplacian, mass, operators, triplets};
+pub use one_shot::{contributions, edge_weights, element_laplacians, laplacian, mass, operators, operators_skipping, triplets, Skipped, Skips};
 pub(crate) use pass::CHUNK;
 pub use pattern::Topology;
 

@@ -1,24 +1,66 @@
 //! The public one-shot API: a validated mesh in, CSR / triplets / per-element values out.
 //! Every function serves tets and triangles alike (generic over [`Simplex`]).
 
-use crate::assembly::scatter::assemble;
+use crate::assembly::scatter::{assemble, Assembled};
 use crate::sparse::{Coo, Csr, Mass};
 use crate::assembly::pass::{boundary_mask, Elements};
 use crate::error::Result;
 use crate::assembly::order::Layout;
 use crate::mesh::MeshView;
 use crate::options::{LaplacianKind, MassKind, Options};
-use crate::assembly::pass::values;
-use crate::element::Request;
+use crate::assembly::pass::{values, Slots};
+use crate::element::{Fault, Request};
 use crate::element::Simplex;
 use crate::assembly::pattern::row_starts;
 use rayon::prelude::*;
 use std::borrow::Cow;
 
+/// Why [`Degenerate::Skip`](crate::Degenerate::Skip) dropped an element's values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Skipped {
+    /// Zero volume: its corners are affinely dependent (exactly).
+    Degenerate,
+    /// Its values leave the normal `f64` range (see [`crate::element::ACCURACY`]'s rule).
+    OutOfRange,
+}
+
+/// The elements a [`Degenerate`](crate::Degenerate) policy skipped: user index,
+/// ascending, and why.
+pub type Skips = Vec<(usize, Skipped)>;
+
+/// The Laplacian and mass of `lap` and `mass` (as [`operators`]) with the elements the
+/// options' [`Degenerate`](crate::Degenerate) policy dropped (user index, ascending, with
+/// why): none under `Raise` (it fails instead), every element whose Laplacian or mass
+/// values were left out under `Skip`. The operators are those of the mesh without them.
+///
+/// ```
+/// use tetlap::{operators_skipping, Degenerate, LaplacianKind, MassKind, Options, Skipped, TetView};
+/// // a tet and a flat one
+/// let points = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0];
+/// let mesh = TetView::new(&points, 3, &[[0, 1, 2, 3], [0, 1, 2, 4]]).unwrap();
+/// let opts = Options { degenerate: Degenerate::Skip, ..Options::default() };
+/// let (_, _, skipped) = operators_skipping(&mesh, LaplacianKind::Primal, MassKind::Barycentric, &opts).unwrap();
+/// assert_eq!(skipped, vec![(1, Skipped::Degenerate)]);
+/// ```
+pub fn operators_skipping<S: Simplex>(
+    mesh: &MeshView<S>,
+    lap: LaplacianKind,
+    mass: MassKind,
+    opts: &Options,
+) -> Result<(Csr, Mass, Skips)> {
+    let lap = lap.check()?;
+    super::install::<S, _>(opts, || {
+        let (l, m, skipped) = one_shot(mesh, opts, Request { laplacian: Some(lap), mass: Some(mass) })?;
+        let why = |f: Fault| if f == Fault::Degenerate { Skipped::Degenerate } else { Skipped::OutOfRange };
+        let skipped = skipped.into_iter().map(|(t, f)| (t, why(f))).collect();
+        Ok((l.expect("a Laplacian was asked for"), m.expect("a mass was asked for"), skipped))
+    })
+}
+
 /// One-shot assembly of `request`: the internal order of `mesh`, the corner incidence and
 /// the pattern, then the values of the elements and the rows, stripe by stripe
-/// ([`assemble`]).
-fn one_shot<S: Simplex>(mesh: &MeshView<S>, opts: &Options, request: Request) -> Result<(Option<Csr>, Option<Mass>)> {
+/// ([`assemble`]); with the elements the policy skipped.
+fn one_shot<S: Simplex>(mesh: &MeshView<S>, opts: &Options, request: Request) -> Result<Assembled> {
     let (mut layout, corners) = Layout::with_corners(mesh, opts)?;
     layout.internal_of = Vec::new(); // not needed any more
     let indptr = row_starts::<S>(&layout.cells, &corners, &layout.vertex_of, opts)?;
@@ -42,7 +84,7 @@ fn one_shot<S: Simplex>(mesh: &MeshView<S>, opts: &Options, request: Request) ->
 pub fn laplacian<S: Simplex>(mesh: &MeshView<S>, kind: LaplacianKind, opts: &Options) -> Result<Csr> {
     let kind = kind.check()?;
     super::install::<S, _>(opts, || {
-        let (l, _) = one_shot(mesh, opts, Request { laplacian: Some(kind), mass: None })?;
+        let (l, _, _) = one_shot(mesh, opts, Request { laplacian: Some(kind), mass: None })?;
         Ok(l.expect("a Laplacian was asked for"))
     })
 }
@@ -59,7 +101,7 @@ pub fn laplacian<S: Simplex>(mesh: &MeshView<S>, kind: LaplacianKind, opts: &Opt
 /// ```
 pub fn mass<S: Simplex>(mesh: &MeshView<S>, kind: MassKind, opts: &Options) -> Result<Mass> {
     super::install::<S, _>(opts, || {
-        let (_, m) = one_shot(mesh, opts, Request { laplacian: None, mass: Some(kind) })?;
+        let (_, m, _) = one_shot(mesh, opts, Request { laplacian: None, mass: Some(kind) })?;
         Ok(m.expect("a mass was asked for"))
     })
 }
@@ -85,7 +127,7 @@ pub fn operators<S: Simplex>(
 ) -> Result<(Csr, Mass)> {
     let lap = lap.check()?;
     super::install::<S, _>(opts, || {
-        let (l, m) = one_shot(mesh, opts, Request { laplacian: Some(lap), mass: Some(mass) })?;
+        let (l, m, _) = one_shot(mesh, opts, Request { laplacian: Some(lap), mass: Some(mass) })?;
         Ok((l.expect("a Laplacian was asked for"), m.expect("a mass was asked for")))
     })
 }
@@ -101,15 +143,33 @@ pub fn contributions<S: Simplex>(
     super::install::<S, _>(opts, || {
         let mut w = vec![S::EdgeValues::default(); mesh.n_elements()];
         let request = Request { laplacian: Some(kind), mass: None };
-        values(&Elements::new(*mesh, opts)?, opts, request, Some(&mut w), None).map(|_| w)
+        values(&Elements::new(*mesh, opts)?, opts, request, Slots { w: Some(&mut w), d: None, m: None }).map(|_| w)
+    })
+}
+
+/// Per-element edge weights (as [`contributions`]) and diagonal entries: each element's
+/// own `L_aa` at its corners, which for the primal is `-Vol |grad lambda_a|^2` computed on
+/// its own (accurate relative to itself, where minus the sum of the corner's rounded
+/// weights can cancel to nothing: a needle) and for the dual minus that sum.
+pub fn element_laplacians<S: Simplex>(
+    mesh: &MeshView<S>,
+    kind: LaplacianKind,
+    opts: &Options,
+) -> Result<Vec<(S::EdgeValues, S::CornerValues)>> {
+    let kind = kind.check()?;
+    super::install::<S, _>(opts, || {
+        let (mut w, mut d) = (vec![Default::default(); mesh.n_elements()], vec![Default::default(); mesh.n_elements()]);
+        let request = Request { laplacian: Some(kind), mass: None };
+        values(&Elements::new(*mesh, opts)?, opts, request, Slots { w: Some(&mut w), d: Some(&mut d), m: None })?;
+        Ok(w.into_iter().zip(d).collect())
     })
 }
 
 /// Unsummed triplets of the Laplacian: `K^2` per element (its local `K x K` Laplacian,
-/// element by element, row-major). Summing repeated positions gives [`laplacian`] up to
-/// rounding.
+/// element by element, row-major, with the element's diagonal entries of
+/// [`element_laplacians`]). Summing repeated positions gives [`laplacian`] up to rounding.
 pub fn triplets<S: Simplex>(mesh: &MeshView<S>, kind: LaplacianKind, opts: &Options) -> Result<Coo> {
-    let w = contributions(mesh, kind, opts)?;
+    let w = element_laplacians(mesh, kind, opts)?;
     let (k, m) = (S::CORNERS, mesh.n_elements());
     let kk = k * k;
     let (mut rows, mut cols, mut vals) = (vec![0u32; kk * m], vec![0u32; kk * m], vec![0.0; kk * m]);
@@ -118,17 +178,14 @@ pub fn triplets<S: Simplex>(mesh: &MeshView<S>, kind: LaplacianKind, opts: &Opti
             .zip(cols.par_chunks_mut(kk))
             .zip(vals.par_chunks_mut(kk))
             .zip(mesh.cells().par_iter().zip(&w))
-            .for_each(|(((r, c), v), (cell, w))| {
+            .for_each(|(((r, c), v), (cell, (w, diag)))| {
                 let cell = cell.as_ref();
-                let mut diag = [0.0; 4];
                 for (&(a, b), &we) in S::EDGES.iter().zip(w.as_ref()) {
                     v[k * a + b] = we;
                     v[k * b + a] = we;
-                    diag[a] -= we;
-                    diag[b] -= we;
                 }
                 for a in 0..k {
-                    v[k * a + a] = diag[a];
+                    v[k * a + a] = diag.as_ref()[a];
                     for b in 0..k {
                         r[k * a + b] = cell[a];
                         c[k * a + b] = cell[b];

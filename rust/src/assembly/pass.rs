@@ -68,30 +68,32 @@ impl<'a, S: Simplex> Elements<'a, S> {
 
 impl<S: Simplex> Elements<'_, S> {
     /// Evaluates `request` on `count` elements, the `k`-th being element `t_of(k)`: its
-    /// values into `w[k]` and `m[k]` (the slices the request asks for; the default for an
-    /// element that fails), its fault into `faults`. Groups of [`LANES`] elements go through
-    /// the vectorised kernels ([`Simplex::at_once`]), those they leave through the batched
-    /// precise path ([`Simplex::precise_at_once`]), the rest through [`Element`]: the same
-    /// values, bit for bit, by any route.
-    #[allow(clippy::too_many_arguments)]
+    /// values into slot `k` of `out` (the default for an element that fails), its fault
+    /// into `faults`. Groups of [`LANES`] elements go through the vectorised kernels
+    /// ([`Simplex::at_once`]), those they leave through the batched precise path
+    /// ([`Simplex::precise_at_once`]), the rest through [`Element`]: the same values, bit
+    /// for bit, by any route.
     pub fn evaluate(
         &self,
         count: usize,
         t_of: impl Fn(usize) -> usize,
         request: Request,
-        mut w: Option<&mut [S::EdgeValues]>,
-        mut m: Option<&mut [S::CornerValues]>,
+        out: Slots<'_, S>,
         scratch: &mut [f64],
         faults: &mut FirstFault,
     ) {
+        let Slots { mut w, mut d, mut m } = out;
         let (points, dim, cells) = (self.mesh.points(), self.mesh.dim(), self.mesh.cells());
         let batched = self.mesh.vertex_weights().is_none() && request.batched();
         let fixed = |t: usize| self.boundary.as_ref().is_some_and(|b| b[t]);
         // the elements no batch computed: (k, t)
         let mut left: Vec<(usize, usize)> = Vec::new();
-        let mut store = |k: usize, wl: &S::EdgeValues, ml: &S::CornerValues| {
+        let mut store = |k: usize, (wl, dl): &(S::EdgeValues, S::CornerValues), ml: &S::CornerValues| {
             if let Some(w) = w.as_deref_mut() {
                 w[k] = *wl;
+            }
+            if let Some(d) = d.as_deref_mut() {
+                d[k] = *dl;
             }
             if let Some(m) = m.as_deref_mut() {
                 m[k] = *ml;
@@ -100,15 +102,17 @@ impl<S: Simplex> Elements<'_, S> {
         let mut group = |items: &[(usize, usize)], left: &mut Vec<(usize, usize)>, precise: bool| {
             let cells: [S::Cell; LANES] = std::array::from_fn(|i| cells[items[i.min(items.len() - 1)].1]);
             let mut wl = [S::EdgeValues::default(); LANES];
+            let mut dl = [S::CornerValues::default(); LANES];
             let mut ml = [S::CornerValues::default(); LANES];
             let cells = &cells[..items.len()];
+            let out = (&mut wl[..], &mut dl[..], &mut ml[..]);
             let done = match precise {
-                false => S::at_once(points, dim, cells, request, &mut wl, &mut ml),
-                true => S::precise_at_once(points, dim, cells, request, &mut wl, &mut ml),
+                false => S::at_once(points, dim, cells, request, out),
+                true => S::precise_at_once(points, dim, cells, request, out),
             };
             for (i, &(k, t)) in items.iter().enumerate() {
                 if done[i] && !fixed(t) {
-                    store(k, &wl[i], &ml[i]);
+                    store(k, &(wl[i], dl[i]), &ml[i]);
                 } else {
                     left.push((k, t));
                 }
@@ -150,51 +154,51 @@ fn chunks_of<T>(values: Option<&mut [T]>, n: usize) -> Vec<Option<&mut [T]>> {
     }
 }
 
-/// `request` on every element, in parallel chunks: values into `w` and `m` (one slot per
-/// element, the default for a faulty one); the first fault under the policy.
-pub(crate) fn values<S: Simplex>(
-    elements: &Elements<S>,
-    opts: &Options,
-    request: Request,
-    w: Option<&mut [S::EdgeValues]>,
-    m: Option<&mut [S::CornerValues]>,
-) -> Result<()> {
-    values_of(elements, opts, None, request, w, m)?.into_result(opts.degenerate)
+/// Where a pass writes its elements' values, one slot per element (the default for a
+/// faulty one), each only if asked for: the Laplacian's edge values `w`, its diagonal
+/// entries `d` (needed only where they are not minus the sums of the edge values:
+/// [`Simplex::own_diagonal`]), the corner masses `m`.
+pub(crate) struct Slots<'s, S: Simplex> {
+    pub w: Option<&'s mut [S::EdgeValues]>,
+    pub d: Option<&'s mut [S::CornerValues]>,
+    pub m: Option<&'s mut [S::CornerValues]>,
+}
+
+/// `request` on every element, in parallel chunks: values into `out`; the first fault
+/// under the policy.
+pub(crate) fn values<S: Simplex>(elements: &Elements<S>, opts: &Options, request: Request, out: Slots<'_, S>) -> Result<()> {
+    values_of(elements, opts, None, request, out)?.check(opts.degenerate)
 }
 
 /// `request` on the `listed` elements (all of them when `None`), in parallel chunks:
-/// values into `w` and `m` (one slot per listed element, the default for a faulty one);
-/// the first faulty element.
+/// values into `out` (one slot per listed element); the faulty elements.
 pub(crate) fn values_of<S: Simplex>(
     elements: &Elements<S>,
     opts: &Options,
     listed: Option<&[u32]>,
     request: Request,
-    w: Option<&mut [S::EdgeValues]>,
-    m: Option<&mut [S::CornerValues]>,
+    out: Slots<'_, S>,
 ) -> Result<FirstFault> {
     let count = listed.map_or(elements.mesh.n_elements(), <[u32]>::len);
     let t_of = |k: usize| listed.map_or(k, |l| l[k] as usize);
-    values_by(elements, opts, count, t_of, request, w, m)
+    values_by(elements, opts, count, t_of, request, out)
 }
 
 /// `request` on `count` elements, the `k`-th being element `t_of(k)`, in parallel chunks:
-/// values into `w` and `m` (one slot per element listed, the default for a faulty one);
-/// the first faulty element.
+/// values into `out` (one slot per element listed); the faulty elements.
 pub(crate) fn values_by<S: Simplex>(
     elements: &Elements<S>,
     opts: &Options,
     count: usize,
     t_of: impl Fn(usize) -> usize + Sync,
     request: Request,
-    w: Option<&mut [S::EdgeValues]>,
-    m: Option<&mut [S::CornerValues]>,
+    out: Slots<'_, S>,
 ) -> Result<FirstFault> {
     let n = count.div_ceil(CHUNK);
-    let chunks = chunks_of(w, n).into_par_iter().zip(chunks_of(m, n));
-    chunked(elements, opts, chunks, |c, (w, m), scratch, faults| {
+    let chunks = chunks_of(out.w, n).into_par_iter().zip(chunks_of(out.d, n)).zip(chunks_of(out.m, n));
+    chunked(elements, opts, chunks, |c, ((w, d), m), scratch, faults| {
         let len = CHUNK.min(count - c * CHUNK);
-        elements.evaluate(len, |k| t_of(c * CHUNK + k), request, w, m, scratch, faults);
+        elements.evaluate(len, |k| t_of(c * CHUNK + k), request, Slots { w, d, m }, scratch, faults);
     })
 }
 
@@ -220,12 +224,14 @@ impl<T> Pool<T> {
 /// Elements per work item (and per poll of the cancel flag).
 pub(crate) const CHUNK: usize = 2048;
 
-/// The first faulty element seen (lowest user index) with its fault, and the first whose
-/// fault no policy skips ([`Fault::Overflow`]).
-#[derive(Debug, Default, Clone, Copy)]
+/// The first faulty element seen (lowest user index) with its fault, the first whose
+/// fault no policy skips ([`Fault::Overflow`]), and every faulty element (what
+/// [`Degenerate::Skip`] drops).
+#[derive(Debug, Default, Clone)]
 pub(crate) struct FirstFault {
     any: Option<(usize, Fault)>,
     overflow: Option<usize>,
+    all: Vec<(usize, Fault)>,
 }
 
 /// The lower of two optional `(user index, ...)` records.
@@ -240,18 +246,26 @@ impl FirstFault {
     /// Records element `t` of `elements` as faulty.
     pub fn record<S: Simplex>(&mut self, elements: &Elements<S>, t: usize, fault: Fault) {
         let user = elements.user_index(t);
-        let overflow = (fault == Fault::Overflow).then_some((user, ()));
-        self.merge(FirstFault { any: Some((user, fault)), overflow: overflow.map(|(u, _)| u) });
+        let overflow = (fault == Fault::Overflow).then_some(user);
+        self.merge(FirstFault { any: Some((user, fault)), overflow, all: vec![(user, fault)] });
     }
 
-    pub fn merge(&mut self, other: FirstFault) {
+    pub fn merge(&mut self, mut other: FirstFault) {
         self.any = lowest(self.any, other.any);
         self.overflow = lowest(self.overflow.map(|u| (u, ())), other.overflow.map(|u| (u, ()))).map(|(u, _)| u);
+        self.all.append(&mut other.all);
+    }
+
+    /// Every faulty element (user index, ascending, each once) with its fault.
+    pub fn all(mut self) -> Vec<(usize, Fault)> {
+        self.all.sort_unstable_by_key(|&(u, _)| u);
+        self.all.dedup_by_key(|&mut (u, _)| u);
+        self.all
     }
 
     /// The error for the first faulty element under the policy (`Skip`: none, but for an
     /// overflow, which is never skipped).
-    pub fn into_result(self, degenerate: Degenerate) -> Result<()> {
+    pub fn check(&self, degenerate: Degenerate) -> Result<()> {
         if let Some(element) = self.overflow {
             return Err(Error::Overflow { element });
         }

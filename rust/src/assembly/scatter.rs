@@ -9,16 +9,18 @@ use crate::assembly::order::Layout;
 use crate::options::{MassKind, Options};
 use crate::element::{edge_index, Simplex};
 use crate::topology::group::Incidence;
-use crate::assembly::pass::{values_by, Elements, FirstFault, Pool};
+use crate::assembly::pass::{values_by, Elements, FirstFault, Pool, Slots};
 use crate::assembly::pattern::{for_each_row, rows_in_internal_order, RowScratch, Topology, ROW_CHUNK};
-use crate::element::Request;
+use crate::element::{Fault, Request};
 use rayon::prelude::*;
 
 /// Fills one row of an operator: entry `(i, j)` is the sum, over the elements around `i`
 /// in ascending user index (`items`, with the row positions `slots` of their other
 /// corners), of `edge(t, e)` for their local edge `e = (i, j)`; the diagonal (at `diag`)
-/// is `diagonal(s)` with `s` the row's off-diagonal sum in column order. Every assembly
-/// path goes through here, hence their bitwise agreement.
+/// is the sum over the same elements of `corner(t, c)`, `c` the local corner of `i`, or
+/// without it of minus the edge values just added ([`crate::element::corner_sums`], bit
+/// for bit). Every assembly path goes through here (or sums in the same order), hence
+/// their bitwise agreement.
 #[inline]
 fn fill_row<S: Simplex>(
     row: &mut [f64],
@@ -26,43 +28,41 @@ fn fill_row<S: Simplex>(
     slots: &[u32],
     diag: usize,
     edge: &impl Fn(usize, usize) -> f64,
-    diagonal: impl FnOnce(f64) -> f64,
+    corner: Option<&dyn Fn(usize, usize) -> f64>,
 ) {
     let k = S::CORNERS;
     row.fill(0.0);
-    for (&corner, slot) in items.iter().zip(slots.chunks_exact(k - 1)) {
-        let (t, c) = (corner as usize / k, corner as usize % k);
+    let mut d = 0.0;
+    for (&item, slot) in items.iter().zip(slots.chunks_exact(k - 1)) {
+        let (t, c) = (item as usize / k, item as usize % k);
+        let mut sum = 0.0;
         for (o, &col) in (0..k).filter(|&o| o != c).zip(slot) {
-            row[col as usize] += edge(t, edge_index(k, c, o));
+            let x = edge(t, edge_index(k, c, o));
+            row[col as usize] += x;
+            sum -= x;
         }
+        d += corner.map_or(sum, |f| f(t, c));
     }
-    let sum: f64 = row.iter().sum();
-    row[diag] = diagonal(sum);
-}
-
-/// The FEM diagonal of internal row `v`: `measure / on` summed over its elements.
-fn fem_diagonal<S: Simplex>(items: &[u32], vol: &[S::CornerValues]) -> f64 {
-    let k = S::CORNERS;
-    items.iter().map(|&q| vol[q as usize / k].as_ref()[0] / S::FEM.1).sum()
+    row[diag] = d;
 }
 
 /// Writes rows `rows` (internal ids; all rows when `None`) of an operator on the
-/// topology's pattern into `data` (user order), by [`fill_row`] with
-/// `diagonal(v, sum of the row's contributions)`.
+/// topology's pattern into `data` (user order), by [`fill_row`].
 fn gather_rows<S: Simplex>(
     topo: &Topology,
     data: &mut [f64],
     rows: Option<&[u32]>,
     opts: &Options,
     edge: impl Fn(usize, usize) -> f64 + Sync,
-    diagonal: impl Fn(usize, f64) -> f64 + Sync,
+    corner: Option<&(dyn Fn(usize, usize) -> f64 + Sync)>,
 ) -> Result<()> {
     let k = S::CORNERS - 1;
     let fill = |v: usize, row: &mut [f64]| {
         let range = topo.corners.offsets[v]..topo.corners.offsets[v + 1];
         let slots = &topo.corner_slots[k * range.start..k * range.end];
         let items = &topo.corners.items[range];
-        fill_row::<S>(row, items, slots, topo.diagonal[v] as usize, &edge, |s| diagonal(v, s));
+        let corner = corner.map(|f| f as &dyn Fn(usize, usize) -> f64);
+        fill_row::<S>(row, items, slots, topo.diagonal[v] as usize, &edge, corner);
     };
     match rows {
         None => {
@@ -132,6 +132,10 @@ fn split_at_bounds<'a, T>(mut v: &'a mut [T], bounds: &[usize]) -> Vec<&'a mut [
     out
 }
 
+/// What a one-shot assembly gives: the Laplacian and the mass asked for, and the faulty
+/// elements its policy skipped (user index, ascending).
+pub(crate) type Assembled = (Option<Csr>, Option<Mass>, Vec<(usize, Fault)>);
+
 /// One-shot assembly of `request` on the rows starting at `indptr` (user order): the
 /// Laplacian from the elements' edge values, the mass from their corner values.
 ///
@@ -141,8 +145,9 @@ fn split_at_bounds<'a, T>(mut v: &'a mut [T], bounds: &[usize]) -> Vec<&'a mut [
 /// the elements of earlier stripes around its rows ("ghosts"), then builds and fills its
 /// rows in parallel chunks, each written once in its place: entry `(i, j)` is the sum over
 /// the elements around `i` in ascending user index (the corner incidence) of their value
-/// at edge `ij`; the diagonal is minus the row's sum in column order (the Laplacian) or
-/// the FEM diagonal; a lumped mass is the sum of the corner values. Only one stripe's
+/// at edge `ij`; the diagonal is the sum, over the same elements, of their diagonal entry
+/// at `i` (the Laplacian) or of their FEM diagonal; a lumped mass is the sum of the corner
+/// values. Only one stripe's
 /// values are held at once. [`gather_rows`] sums the same way: one-shot, cached and
 /// updated operators agree bit for bit.
 pub(crate) fn assemble<S: Simplex>(
@@ -152,7 +157,7 @@ pub(crate) fn assemble<S: Simplex>(
     indptr: Vec<usize>,
     request: Request,
     opts: &Options,
-) -> Result<(Option<Csr>, Option<Mass>)> {
+) -> Result<Assembled> {
     let (n, nnz) = (layout.n_vertices(), *indptr.last().expect("n + 1 entries"));
     let cells = &layout.cells[..];
     let fem_mass = request.mass == Some(MassKind::Fem);
@@ -166,7 +171,7 @@ pub(crate) fn assemble<S: Simplex>(
     let bounds: Vec<usize> = (0..n).step_by(per_stripe).chain([n]).collect();
     let first = |c: &S::Cell| *c.as_ref().iter().min().expect("corners") as usize;
     let element_bounds: Vec<usize> = bounds.iter().map(|&v| cells.partition_point(|c| first(c) < v)).collect();
-    {
+    let skipped = {
         let (indptr, vertex_of) = (&indptr, &layout.vertex_of[..]);
         let mut index_rows = rows_in_internal_order(&mut indices, indptr, vertex_of);
         let mut lap_rows = lap.as_deref_mut().map(|d| rows_in_internal_order(d, indptr, vertex_of));
@@ -177,7 +182,7 @@ pub(crate) fn assemble<S: Simplex>(
             fem: fem_rows.as_deref_mut(),
             lumped: lumped.as_deref_mut(),
         };
-        let mut values = Values::<S> { ghosts: vec![], local_of: vec![0; cells.len()], own: 0..0, w: vec![], m: vec![] };
+        let mut values = Values::<S> { ghosts: vec![], local_of: vec![0; cells.len()], own: 0..0, w: vec![], d: vec![], m: vec![] };
         let pool = Pool::new();
         let mut first = FirstFault::default();
         for (s, out) in all.split(&bounds).into_iter().enumerate() {
@@ -185,8 +190,9 @@ pub(crate) fn assemble<S: Simplex>(
             first.merge(values.compute(elements, corners, rows.clone(), own, request, opts)?);
             fill_rows(layout, corners, &values, rows, out, &pool, opts)?;
         }
-        first.into_result(opts.degenerate)?;
-    }
+        first.check(opts.degenerate)?;
+        first.all()
+    };
     opts.cancelled()?;
     let laplacian = lap.map(|data| Csr { n, indptr: indptr.clone(), indices: indices.clone(), data });
     let mass = match (lumped, fem) {
@@ -202,7 +208,7 @@ pub(crate) fn assemble<S: Simplex>(
         Some(Mass::Consistent(m)) => finite_rows(&m.indptr, &m.data)?,
         None => {}
     }
-    Ok((laplacian, mass))
+    Ok((laplacian, mass, skipped))
 }
 
 /// The per-element values of one stripe: its own elements (a range of the internal order)
@@ -214,6 +220,9 @@ struct Values<S: Simplex> {
     local_of: Vec<u32>,
     own: std::ops::Range<usize>,
     w: Vec<S::EdgeValues>,
+    /// The Laplacian's diagonal entries, where they are the elements' own
+    /// ([`Simplex::own_diagonal`]; else empty).
+    d: Vec<S::CornerValues>,
     m: Vec<S::CornerValues>,
 }
 
@@ -243,16 +252,24 @@ impl<S: Simplex> Values<S> {
         let ghosts = &self.ghosts;
         let t_of = |i: usize| if i < own.len() { own.start + i } else { ghosts[i - own.len()] as usize };
         self.w.clear();
+        self.d.clear();
         self.m.clear();
+        let own_diagonal = request.laplacian.is_some_and(S::own_diagonal);
         if request.laplacian.is_some() {
-            self.w.resize(count, S::EdgeValues::default());
+            self.w.resize(count, Default::default());
+        }
+        if own_diagonal {
+            self.d.resize(count, Default::default());
         }
         if request.mass.is_some() {
             self.m.resize(count, S::CornerValues::default());
         }
-        let w = request.laplacian.map(|_| &mut self.w[..]);
-        let m = request.mass.map(|_| &mut self.m[..]);
-        let faults = values_by(elements, opts, count, t_of, request, w, m)?;
+        let out = Slots {
+            w: request.laplacian.map(|_| &mut self.w[..]),
+            d: own_diagonal.then_some(&mut self.d[..]),
+            m: request.mass.map(|_| &mut self.m[..]),
+        };
+        let faults = values_by(elements, opts, count, t_of, request, out)?;
         self.own = own;
         Ok(faults)
     }
@@ -298,7 +315,7 @@ fn fill_chunk<S: Simplex>(
     let k = S::CORNERS;
     let RowWork { rows: builder, position, row } = work;
     let RowsOut { indices, mut lap, mut fem, mut lumped } = out;
-    let (w, m) = (&values.w, &values.m);
+    let (w, own, m) = (&values.w, &values.d, &values.m);
     for (r, index_row) in indices.iter_mut().enumerate() {
         let v = first + r;
         // the row's columns, sorted by user index, and where each lands
@@ -313,17 +330,23 @@ fn fill_chunk<S: Simplex>(
         if let Some(lap) = lap.as_deref_mut() {
             row.clear();
             row.resize(len, 0.0);
+            // the diagonal as fill_row sums it
+            let mut d = 0.0;
             for &item in items {
                 let (t, c) = (item as usize / k, item as usize % k);
-                let (cell, value) = (layout.cells[t].as_ref(), w[values.local(t)]);
+                let (cell, local) = (layout.cells[t].as_ref(), values.local(t));
+                let value = w[local].as_ref();
+                let mut sum = 0.0;
                 for (o, &u) in cell.iter().enumerate() {
                     if o != c {
-                        row[position[u as usize] as usize] += value.as_ref()[edge_index(k, c, o)];
+                        let x = value[edge_index(k, c, o)];
+                        row[position[u as usize] as usize] += x;
+                        sum -= x;
                     }
                 }
+                d += if own.is_empty() { sum } else { own[local].as_ref()[c] };
             }
-            let sum: f64 = row.iter().sum();
-            row[diag] = -sum;
+            row[diag] = d;
             lap[r].copy_from_slice(row);
         }
         if let Some(fem) = fem.as_deref_mut() {
@@ -338,7 +361,12 @@ fn fill_chunk<S: Simplex>(
                     }
                 }
             }
-            row[diag] = items.iter().map(|&q| m[values.local(q as usize / k)].as_ref()[0] / S::FEM.1).sum();
+            // summed as fill_row sums it
+            let mut d = 0.0;
+            for &q in items {
+                d += m[values.local(q as usize / k)].as_ref()[0] / S::FEM.1;
+            }
+            row[diag] = d;
             fem[r].copy_from_slice(row);
         }
         if let Some(lumped) = lumped.as_deref_mut() {
@@ -374,13 +402,14 @@ pub(crate) fn finite_rows(indptr: &[usize], data: &[f64]) -> Result<()> {
 /// ones.
 pub(crate) fn laplacian_values<S: Simplex>(
     topo: &Topology,
-    w: &[S::EdgeValues],
+    w: &[(S::EdgeValues, S::CornerValues)],
     rows: Option<&[u32]>,
     mut data: Vec<f64>,
     opts: &Options,
 ) -> Result<Vec<f64>> {
     data.resize(topo.nnz(), 0.0);
-    gather_rows::<S>(topo, &mut data, rows, opts, |t, e| w[t].as_ref()[e], |_, sum| -sum)?;
+    let corner = |t: usize, c: usize| w[t].1.as_ref()[c];
+    gather_rows::<S>(topo, &mut data, rows, opts, |t, e| w[t].0.as_ref()[e], Some(&corner))?;
     Ok(data)
 }
 
@@ -399,9 +428,9 @@ pub(crate) fn mass_values<S: Simplex>(
     match (kind, rows) {
         (MassKind::Fem, _) => {
             values.resize(topo.nnz(), 0.0);
-            let diagonal = |v: usize, _| fem_diagonal::<S>(topo.corners.of(v), m);
-            let off = S::FEM.0;
-            gather_rows::<S>(topo, &mut values, rows, opts, |t, _| m[t].as_ref()[0] / off, diagonal)?;
+            let (off, on) = S::FEM;
+            let corner = |t: usize, _| m[t].as_ref()[0] / on;
+            gather_rows::<S>(topo, &mut values, rows, opts, |t, _| m[t].as_ref()[0] / off, Some(&corner))?;
         }
         (_, None) => {
             values.resize(topo.n(), 0.0);

@@ -18,7 +18,12 @@
 //! One parallel pass over the tets: each gathers its cotangents (per local edge, corner and
 //! volume), runs one [`Vjp`] for every kernel the request
 //! needs (a primal, a dual with its cell volumes, a volume: shared normals, one pull-back)
-//! and writes its four corner gradients (and four weight gradients) into its own slot.
+//! and writes its four corner gradients (and four weight gradients) into its own slot. A
+//! tet whose values take the precise path of the accuracy rule (it is not well shaped:
+//! a sliver, a needle) takes it for its gradient too: forward derivatives through the
+//! same closed forms in double-double with error bounds, else in exact arithmetic
+//! (`crate::element::tet::derivatives::precise`), each tet's gradient within the
+//! documented accuracy of its largest component.
 //! Then every vertex sums the slots of its tet corners in ascending order (the corner
 //! incidence of the assembly): the result is bitwise identical for any thread count.
 //! Degenerate tets follow [`crate::Degenerate`] (an error naming the first, or a zero
@@ -69,8 +74,9 @@
 use crate::sparse::CsrRef;
 use crate::assembly::pass::Elements;
 use crate::error::{Error, Result};
+use crate::element::tet::derivatives::precise::{precise_gradient, Pairing};
 use crate::element::tet::derivatives::{to_ambient, Vjp};
-use crate::element::tet::{self, EDGES};
+use crate::element::tet::EDGES;
 use crate::mesh::TetView;
 use crate::options::{Boundary, LaplacianKind, MassKind, Options};
 use crate::assembly::pass::{chunked, CHUNK};
@@ -341,7 +347,9 @@ impl SlotLayout {
 /// are refused (the accuracy rule of the assembly, applied to this element), or
 /// [`Fault::Overflow`] where they are fine but their products with the cotangents leave
 /// the `f64` range. The pairing's value comes from the forward values the assembly
-/// computes; the gradient from the [`Vjp`] of the same element (`scratch` holds its frame).
+/// computes; the gradient from the [`Vjp`] of the same element (`scratch` holds its frame),
+/// or, for an element of the precise path, from the precise path's forward mode
+/// ([`precise_gradient`]: double-double with error bounds, else exact).
 fn tet_gradient(
     el: &Element<Tet>,
     plan: &Plan,
@@ -357,33 +365,45 @@ fn tet_gradient(
     let (dm, dv) = plan.mass_cotangent(cell);
     let mut value = 0.0;
     if let Some((kind, _)) = plan.laplacian {
-        value += dot(el.laplacian(kind)?.as_ref(), &dw);
+        value += dot(el.laplacian(kind)?.0.as_ref(), &dw);
     }
     if let Some((kind, _)) = plan.mass {
         let m = el.corner_mass(kind)?;
-        value += if kind == MassKind::Circumcentric { dot(&m, &dm) } else { dv * tet::volume(lt) };
+        value += if kind == MassKind::Circumcentric { dot(&m, &dm) } else { dv * el.measure() };
     }
-    let omega = el.vertex_weights().map(|w| {
-        let s2 = lt.scale * lt.scale;
-        w.map(|wi| (wi - w[0]) / s2)
-    });
-    let mut vjp = Vjp::new(lt);
     let (primal_share, dual_share) = match plan.laplacian {
         None => (0.0, 0.0),
         Some((LaplacianKind::Primal, _)) => (1.0, 0.0),
         Some((LaplacianKind::Dual, _)) => (0.0, 1.0),
         Some((LaplacianKind::Affine(s), _)) => (1.0 - s, s),
     };
-    if primal_share != 0.0 {
-        vjp.primal(dw.map(|x| x * primal_share));
-    }
-    if plan.dual {
-        vjp.dual(omega, dw.map(|x| x * dual_share), dm);
-    }
-    if dv != 0.0 {
-        vjp.volume(dv);
-    }
-    let g = vjp.finish();
+    let g = if el.is_precise() {
+        // the precise path of the accuracy rule, as for the values
+        let pairing = Pairing {
+            primal: (primal_share != 0.0).then(|| dw.map(|x| x * primal_share)),
+            dual: plan.dual.then(|| dw.map(|x| x * dual_share)),
+            cells: plan.dual.then_some(dm),
+            volume: dv,
+        };
+        let x = el.corners();
+        precise_gradient([x[0], x[1], x[2], x[3]], lt, el.vertex_weights(), &pairing).ok_or(Fault::Inaccurate)?
+    } else {
+        let omega = el.vertex_weights().map(|w| {
+            let s2 = lt.scale * lt.scale;
+            w.map(|wi| (wi - w[0]) / s2)
+        });
+        let mut vjp = Vjp::new(lt);
+        if primal_share != 0.0 {
+            vjp.primal(dw.map(|x| x * primal_share));
+        }
+        if plan.dual {
+            vjp.dual(omega, dw.map(|x| x * dual_share), dm);
+        }
+        if dv != 0.0 {
+            vjp.volume(dv);
+        }
+        vjp.finish()
+    };
     let dim = layout.dim;
     if dim == 3 {
         for (out, c) in slot.chunks_exact_mut(3).zip(&g.corners) {
@@ -436,7 +456,7 @@ pub fn vjp(mesh: &TetView, cotangents: &Cotangents, opts: &Options) -> Result<Me
                         }
                     }
                 })?;
-                fault.into_result(opts.degenerate)?;
+                fault.check(opts.degenerate)?;
                 Ok(slots)
             },
             || {

@@ -4,29 +4,41 @@
 //!
 //! # The accuracy rule
 //! Every value of an element (an edge value of any Laplacian, a mass of any kind) is
-//! computed to within [`ACCURACY`] of the largest value of its kind in that element:
+//! computed to within [`ACCURACY`] of the largest value of its kind in that element; the
+//! primal's diagonal entries each to within that of themselves, and its weights to within
+//! that of `sqrt(|L_ii L_jj|)` of their corners' entries (what makes its semidefiniteness
+//! checkable):
 //!
-//! * the element's determinant is rounded correctly ([`crate::element::exact`]): its
-//!   volume, barycentric and FEM masses are exact to rounding, and "degenerate" means
-//!   exactly flat;
+//! * the element's determinant is rounded correctly ([`crate::element::exact`]), and where
+//!   the scaled frame's determinant leaves the normal range it is decided exactly: "degenerate"
+//!   means exactly flat, and volumes, barycentric and FEM masses are exact to rounding;
 //! * a [well-shaped](Simplex::well_shaped) element (a tet with radius ratio at least
 //!   [`WELL_SHAPED`](crate::element::tet::WELL_SHAPED), 1/32; every triangle) is computed
 //!   in `f64`;
 //! * any other (a sliver, a cap, a needle, a wedge) is computed in double-double from its
-//!   exact input coordinates: its primal and every variant of its dual (plain, weighted,
-//!   with the barycentric boundary fix, in the affine family, as circumcentric or mixed
-//!   masses), by the same code;
-//! * an element is refused only when it is exactly degenerate or a value leaves the `f64`
-//!   range.
+//!   exact input coordinates with a bound on every value's error
+//!   ([`crate::element::bounded`]): its primal and every variant of its dual (plain,
+//!   weighted, with the barycentric boundary fix, in the affine family, as circumcentric
+//!   or mixed masses), by the same code;
+//! * where those bounds do not certify the accuracy (a needle whose thin directions are
+//!   many orders below its length, or whose frame's products leave the `f64` range), the
+//!   same code runs in exact rational arithmetic ([`crate::element::rational`]) from the
+//!   input coordinates, and the values are rounded once;
+//! * an element is refused only when it is exactly degenerate or when a kind's scale (its
+//!   largest value; each primal diagonal entry) is not a normal `f64` (beyond about
+//!   `1.8e308` or below `2.2e-308`): its values leave the range where they can be held to
+//!   the accuracy. (A tet immersed in R^d, `d > 3`, has no exact step: it is refused too
+//!   when double-double cannot be certified.)
 //!
 //! The tests check every path against exact rationals, with and without vertex weights,
-//! down to a flatness of `1e-12`. Vertex weights do not enter the rule: the dual is
-//! computed through products of barycentric coordinates
-//! ([`crate::element::tet::power_dual`]), which stay accurate for weights of any size.
-//! Elements immersed in a larger space (tets in R^d, d > 3; triangles in R^d, d > 2) are
-//! computed in a QR frame of their own space, in double-double too when not well-shaped.
+//! down to a flatness of `1e-12`, and needles of every orientation and vertex order up to
+//! the ends of the `f64` range. Vertex weights do not enter the rule: the dual is computed
+//! through products of barycentric coordinates ([`crate::element::tet::power_dual`]),
+//! which stay accurate for weights of any size. Elements immersed in a larger space (tets
+//! in R^d, d > 3; triangles in R^d, d > 2) are computed in a QR frame of their own space,
+//! in double-double too when not well-shaped.
 
-use super::simplex::{Simplex, Values};
+use super::simplex::{corner_sums, Simplex, Values};
 use super::tet::batch::{Frames, Lanes, LANES};
 use super::tet::Placement;
 use crate::options::{LaplacianKind, MassKind};
@@ -39,9 +51,10 @@ pub const ACCURACY: f64 = 1.0 / (1u64 << 40) as f64;
 /// Why one element has no values: the [`crate::Degenerate`] policy decides what happens.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Fault {
-    /// Zero volume: its corners are affinely dependent.
+    /// Zero volume: its corners are affinely dependent (decided exactly).
     Degenerate,
-    /// A value leaves the `f64` range.
+    /// A kind of its values leaves the normal `f64` range (see the accuracy rule), or, for
+    /// an immersed tet, cannot be computed to the documented accuracy.
     Inaccurate,
     /// Its values are fine, but what a caller multiplies them with (a derivative's
     /// cotangents) leaves the `f64` range: never skipped, whatever the policy.
@@ -69,6 +82,10 @@ impl Request {
 /// An element's dual: edge weights and cell volumes (each checked by whoever asks for it).
 type DualValues<S> = (<S as Simplex>::EdgeValues, <S as Simplex>::CornerValues);
 
+/// An element's Laplacian: its edge values (the off-diagonals `w_ij`) and its corners'
+/// diagonal entries.
+pub(crate) type LaplacianValues<S> = (<S as Simplex>::EdgeValues, <S as Simplex>::CornerValues);
+
 /// One element as the kernels see it, with each dual it needs computed once however many
 /// operators ask for it.
 pub(crate) struct Element<'a, S: Simplex> {
@@ -89,6 +106,26 @@ pub(crate) struct Element<'a, S: Simplex> {
     mixed: OnceCell<DualValues<S>>,
 }
 
+/// `v` if its values are finite and the largest is a normal `f64` (a kind measured against
+/// its largest value).
+fn in_range<V: Values>(v: V) -> Result<V, Fault> {
+    let largest = v.as_ref().iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if v.as_ref().iter().all(|x| x.is_finite()) && largest >= f64::MIN_POSITIVE {
+        Ok(v)
+    } else {
+        Err(Fault::Inaccurate)
+    }
+}
+
+/// `v` if every value is a normal `f64` (values each measured against itself).
+fn each_normal<V: Values>(v: V) -> Result<V, Fault> {
+    if v.as_ref().iter().all(|x| x.is_normal()) {
+        Ok(v)
+    } else {
+        Err(Fault::Inaccurate)
+    }
+}
+
 /// `v` if every value is finite.
 fn finite<V: Values>(v: V) -> Result<V, Fault> {
     if v.as_ref().iter().all(|x| x.is_finite()) {
@@ -102,6 +139,53 @@ fn filled<V: Values>(x: f64) -> V {
     let mut v = V::default();
     v.as_mut().fill(x);
     v
+}
+
+/// The Laplacian of `kind` from an element's `primal` (weights and diagonal entries) and
+/// `dual` weights, each asked for only if needed, under the range rule: the one
+/// definition for [`Element`] and the batches.
+fn laplacian_of<S: Simplex>(
+    kind: LaplacianKind,
+    primal: impl FnOnce() -> Result<LaplacianValues<S>, Fault>,
+    dual: impl FnOnce() -> S::EdgeValues,
+) -> Result<LaplacianValues<S>, Fault> {
+    let primal = || -> Result<LaplacianValues<S>, Fault> {
+        let (w, d) = primal()?;
+        Ok((in_range(w)?, each_normal(d)?))
+    };
+    let dual = || -> Result<LaplacianValues<S>, Fault> {
+        let w = in_range(dual())?;
+        Ok((w, finite(corner_sums::<S>(&w))?))
+    };
+    match kind {
+        LaplacianKind::Primal => primal(),
+        LaplacianKind::Dual => dual(),
+        LaplacianKind::Affine(s) => {
+            let ((mut w, mut d), (dw, dd)) = (primal()?, dual()?);
+            let mix = |p: &mut f64, q: &f64| *p = (1.0 - s) * *p + s * q;
+            w.as_mut().iter_mut().zip(dw.as_ref()).for_each(|(p, q)| mix(p, q));
+            if S::own_diagonal(kind) {
+                d.as_mut().iter_mut().zip(dd.as_ref()).for_each(|(p, q)| mix(p, q));
+            } else {
+                d = corner_sums::<S>(&w);
+            }
+            Ok((finite(w)?, finite(d)?))
+        }
+    }
+}
+
+/// The corner masses of a lumped `kind` (for [`MassKind::Fem`] the measure in every slot)
+/// from an element's `measure` and its dual's cell volumes `cells` (asked for only if
+/// needed), under the range rule: the measure (the barycentric and FEM masses' scale) or
+/// the largest cell volume (which can be far larger than their sum, the measure) a
+/// normal `f64`. The one definition for [`Element`] and the batches.
+fn mass_of<S: Simplex>(kind: MassKind, measure: f64, cells: impl FnOnce() -> S::CornerValues) -> Result<S::CornerValues, Fault> {
+    match kind {
+        MassKind::Circumcentric | MassKind::Mixed => in_range(cells()),
+        _ if !measure.is_normal() => Err(Fault::Inaccurate),
+        MassKind::Barycentric => finite(filled(measure / S::CORNERS as f64)),
+        MassKind::Fem => finite(filled(measure)),
+    }
 }
 
 impl<'a, S: Simplex> Element<'a, S> {
@@ -125,24 +209,38 @@ impl<'a, S: Simplex> Element<'a, S> {
         self.vertex_weights.as_ref()
     }
 
-    /// Zero volume.
+    /// Zero volume, decided exactly (a frame whose determinant underflows is not flat).
     fn degenerate(&self) -> Result<(), Fault> {
-        if S::is_degenerate(&self.local) {
+        if S::is_degenerate(&self.local) && S::exactly_degenerate(&self.corners()) {
             Err(Fault::Degenerate)
         } else {
             Ok(())
         }
     }
 
+    /// Whether the element takes the precise path (it is not well shaped).
+    pub fn is_precise(&self) -> bool {
+        self.precise
+    }
+
     /// The element's input corners (for the precise path).
-    fn corners(&self) -> Vec<&'a [f64]> {
+    pub fn corners(&self) -> Vec<&'a [f64]> {
         self.cell.as_ref().iter().map(|&v| &self.points[v as usize * self.dim..][..self.dim]).collect()
     }
 
-    /// The primal weights under the accuracy rule.
-    fn primal(&self) -> Result<S::EdgeValues, Fault> {
+    /// The element's measure (volume, area) in the caller's units, correctly rounded.
+    pub fn measure(&self) -> f64 {
+        if S::measure_trusted(&self.local) {
+            S::measure(&self.local)
+        } else {
+            S::measure_exact(&self.corners(), &self.local)
+        }
+    }
+
+    /// The primal weights and diagonal entries under the accuracy rule (unchecked).
+    fn primal(&self) -> LaplacianValues<S> {
         let precise = self.precise.then(|| S::primal_precise(&self.corners(), &self.local)).flatten();
-        finite(precise.unwrap_or_else(|| S::primal(&self.local)))
+        precise.unwrap_or_else(|| S::primal(&self.local))
     }
 
     /// The dual with `weights` and `placement` under the accuracy rule.
@@ -156,20 +254,11 @@ impl<'a, S: Simplex> Element<'a, S> {
         self.dual.get_or_init(|| self.evaluate(self.vertex_weights.as_ref(), self.placement))
     }
 
-    /// The element's edge values (the off-diagonals `w_ij` of its Laplacian) for `kind`.
-    pub fn laplacian(&self, kind: LaplacianKind) -> Result<S::EdgeValues, Fault> {
+    /// The element's Laplacian of `kind`: its edge values (the off-diagonals `w_ij`) and
+    /// its corners' diagonal entries.
+    pub fn laplacian(&self, kind: LaplacianKind) -> Result<LaplacianValues<S>, Fault> {
         self.degenerate()?;
-        finite(match kind {
-            LaplacianKind::Primal => self.primal()?,
-            LaplacianKind::Dual => self.dual().0,
-            LaplacianKind::Affine(s) => {
-                let (mut w, d) = (self.primal()?, self.dual().0);
-                for (p, d) in w.as_mut().iter_mut().zip(d.as_ref()) {
-                    *p = (1.0 - s) * *p + s * d;
-                }
-                w
-            }
-        })
+        laplacian_of::<S>(kind, || Ok(self.primal()), || self.dual().0)
     }
 
     /// The element's corner masses for a lumped `kind`; for [`MassKind::Fem`] its measure
@@ -177,31 +266,25 @@ impl<'a, S: Simplex> Element<'a, S> {
     /// units (it underflows or overflows: masses would be silently zero or infinite).
     pub fn corner_mass(&self, kind: MassKind) -> Result<S::CornerValues, Fault> {
         self.degenerate()?;
-        if !S::measure(&self.local).is_normal() {
-            return Err(Fault::Inaccurate);
-        }
-        finite(match kind {
-            MassKind::Barycentric => S::barycentric(&self.local),
-            MassKind::Circumcentric => self.dual().1,
+        mass_of::<S>(kind, self.measure(), || match kind {
             MassKind::Mixed => self.mixed.get_or_init(|| self.evaluate(None, Placement::Snapped)).1,
-            MassKind::Fem => filled(S::measure(&self.local)),
+            _ => self.dual().1,
         })
     }
 }
 
 /// [`Request`] on up to [`LANES`] tets of `points` (R^3, no vertex weights, no boundary fix,
-/// no mixed mass: [`Request::batched`])
-/// at once, by the batched `f64` kernels ([`super::tet::batch`]): the values of every tet
-/// that the rule computes in `f64` from its float determinant and whose values are
-/// finite, in `w[k]` / `m[k]` for `cells[k]`, flagged `true`. The others (the precise and
-/// careful paths, exact determinants, faults) are left to [`tets_precise_at_once`] and
-/// [`Element`]; the flagged values are bit for bit [`Element`]'s.
+/// no mixed mass: [`Request::batched`]) at once, by the batched `f64` kernels
+/// ([`super::tet::batch`]): the values of every tet that the rule computes in `f64` from
+/// its float determinant and whose values are in range, in `w[k]` (with the diagonal
+/// entries in `d[k]`) and `m[k]` for `cells[k]`, flagged `true`. The others (the precise
+/// path, exact determinants, faults) are left to [`tets_precise_at_once`] and [`Element`];
+/// the flagged values are bit for bit [`Element`]'s.
 pub(crate) fn tets_at_once(
     points: &[f64],
     cells: &[[u32; 4]],
     request: Request,
-    w: &mut [[f64; 6]],
-    m: &mut [[f64; 4]],
+    out: Outputs<'_>,
 ) -> [bool; LANES] {
     let lanes = cells.len().min(LANES);
     let corners: [[Lanes; 3]; 4] = std::array::from_fn(|c| {
@@ -210,27 +293,49 @@ pub(crate) fn tets_at_once(
     let f = Frames::new(&corners);
     let mut ok = f.plain;
     ok[lanes..].fill(false);
-    finish(request, ok, || f.primal(), || f.dual(), f.volume(), &mut w[..lanes], &mut m[..lanes])
+    let primal = || {
+        let (w, d) = f.primal();
+        (w, d, [true; LANES])
+    };
+    let dual = || {
+        let (w, m) = f.dual();
+        (w, m, [true; LANES])
+    };
+    finish(request, ok, primal, dual, f.volume(), out.first(lanes))
+}
+
+/// The outputs of a batch: edge values, diagonal entries and corner masses, one per lane.
+pub(crate) struct Outputs<'o> {
+    pub w: &'o mut [[f64; 6]],
+    pub d: &'o mut [[f64; 4]],
+    pub m: &'o mut [[f64; 4]],
+}
+
+impl<'o> Outputs<'o> {
+    /// The outputs of the first `lanes` lanes.
+    fn first(self, lanes: usize) -> Outputs<'o> {
+        Outputs { w: &mut self.w[..lanes], d: &mut self.d[..lanes], m: &mut self.m[..lanes] }
+    }
 }
 
 /// [`Request`] on up to [`LANES`] tets of `points` (as [`tets_at_once`]) that take the
-/// precise path (not well shaped, not flat), at once in double-double
-/// ([`crate::element::exact::DdLanes`]): the values of those whose values are finite, bit
-/// for bit [`Element`]'s, flagged `true`; the others are left to [`Element`].
+/// precise path (not well shaped, not flat, with a normal determinant), at once in
+/// double-double with error bounds ([`crate::element::bounded::BdLanes`]): the values of
+/// those whose bounds certify them and whose values are in range, bit for bit
+/// [`Element`]'s, flagged `true`; the others are left to [`Element`].
 pub(crate) fn tets_precise_at_once(
     points: &[f64],
     cells: &[[u32; 4]],
     request: Request,
-    w: &mut [[f64; 6]],
-    m: &mut [[f64; 4]],
+    out: Outputs<'_>,
 ) -> [bool; LANES] {
     use super::frame::{local_tet, precise_tet};
-    use super::tet::{circumcentric_dual_precise_lanes, primal_weights_precise_lanes, volume, well_shaped};
+    use super::tet::{circumcentric_dual_precise_lanes, primal_precise_lanes, volume, well_shaped};
     let lanes = cells.len().min(LANES);
     let corner = |i: usize, c: usize| &points[3 * cells[i][c] as usize..][..3];
     let x = |i: usize| [corner(i, 0), corner(i, 1), corner(i, 2), corner(i, 3)];
     let local: [_; LANES] = std::array::from_fn(|i| (i < lanes).then(|| local_tet(x(i), &mut [])));
-    let mut ok: [bool; LANES] = local.map(|t| t.is_some_and(|t| t.det != 0.0 && !well_shaped(&t)));
+    let mut ok: [bool; LANES] = local.map(|t| t.is_some_and(|t| t.det.abs() >= f64::MIN_POSITIVE && !well_shaped(&t)));
     let Some(first) = ok.iter().position(|&p| p) else {
         return ok;
     };
@@ -246,66 +351,129 @@ pub(crate) fn tets_precise_at_once(
     finish(
         request,
         ok,
-        || primal_weights_precise_lanes(&corners, det, scale),
+        || primal_precise_lanes(&corners, det, scale),
         || circumcentric_dual_precise_lanes(&corners, det, scale),
         volume,
-        &mut w[..lanes],
-        &mut m[..lanes],
+        out.first(lanes),
     )
 }
 
-/// The values `request` asks for from a batch's kernels (`primal`, `dual`: the plain
-/// circumcentric one, `volume`), checked as [`Element`] checks them, into `w` and `m` for
-/// the lanes still `ok`; returns those lanes.
+/// The values `request` asks for from a batch's kernels (`primal`: weights, diagonal
+/// entries and the lanes they serve; `dual`: the plain circumcentric one and the lanes it
+/// serves; `volume`), checked by the rule of [`Element`] ([`laplacian_of`], [`mass_of`],
+/// written here for whole lanes: the batch test checks the two bit for bit), into `out`
+/// for the lanes still `ok`; returns those lanes.
 fn finish(
     request: Request,
     mut ok: [bool; LANES],
-    primal: impl FnOnce() -> [Lanes; 6],
-    dual: impl FnOnce() -> ([Lanes; 6], [Lanes; 4]),
+    primal: impl FnOnce() -> ([Lanes; 6], [Lanes; 4], [bool; LANES]),
+    dual: impl FnOnce() -> ([Lanes; 6], [Lanes; 4], [bool; LANES]),
     volume: Lanes,
-    w: &mut [[f64; 6]],
-    m: &mut [[f64; 4]],
+    out: Outputs<'_>,
 ) -> [bool; LANES] {
-    let all_finite = |v: &[Lanes], ok: &mut [bool; LANES]| {
-        for (i, ok) in ok.iter_mut().enumerate() {
-            *ok &= v.iter().all(|x| x[i].is_finite());
+    let kind = request.laplacian;
+    let needs_primal = matches!(kind, Some(LaplacianKind::Primal | LaplacianKind::Affine(_)));
+    let needs_dual = matches!(kind, Some(LaplacianKind::Dual | LaplacianKind::Affine(_)))
+        || request.mass == Some(MassKind::Circumcentric);
+    let none = || ([[0.0; LANES]; 6], [[0.0; LANES]; 4], [true; LANES]);
+    let (pw, pd, p_ok) = if needs_primal { primal() } else { none() };
+    let (dw, dm, d_ok) = if needs_dual { dual() } else { none() };
+    for i in 0..LANES {
+        ok[i] &= p_ok[i] && d_ok[i];
+    }
+    let Outputs { w, d, m } = out;
+    let transpose = |lw: &[Lanes; 6], ld: &[Lanes; 4], w: &mut [[f64; 6]], d: &mut [[f64; 4]]| {
+        for i in 0..w.len() {
+            (w[i], d[i]) = (std::array::from_fn(|e| lw[e][i]), std::array::from_fn(|c| ld[c][i]));
         }
     };
-    let needs_dual = matches!(request.laplacian, Some(LaplacianKind::Dual | LaplacianKind::Affine(_)))
-        || request.mass == Some(MassKind::Circumcentric);
-    let (dw, dm) = if needs_dual { dual() } else { ([[0.0; LANES]; 6], [[0.0; LANES]; 4]) };
-    if let Some(kind) = request.laplacian {
-        let values = match kind {
-            LaplacianKind::Primal => primal(),
-            LaplacianKind::Dual => dw,
-            LaplacianKind::Affine(s) => {
-                // Element::laplacian: the primal must be finite on its own
-                let p = primal();
-                all_finite(&p, &mut ok);
-                std::array::from_fn(|e| std::array::from_fn(|i| (1.0 - s) * p[e][i] + s * dw[e][i]))
-            }
-        };
-        all_finite(&values, &mut ok);
-        for (k, out) in w.iter_mut().enumerate() {
-            *out = std::array::from_fn(|e| values[e][k]);
+    let check_primal = |ok: &mut [bool; LANES]| {
+        lanes_in_range(&pw, ok);
+        lanes_each_normal(&pd, ok);
+    };
+    let check_dual = |ok: &mut [bool; LANES]| {
+        lanes_in_range(&dw, ok);
+        let dd = lanes_corner_sums(&dw);
+        lanes_finite(&dd, ok);
+        dd
+    };
+    match kind {
+        None => {}
+        Some(LaplacianKind::Primal) => {
+            check_primal(&mut ok);
+            transpose(&pw, &pd, w, d);
+        }
+        Some(LaplacianKind::Dual) => {
+            let dd = check_dual(&mut ok);
+            transpose(&dw, &dd, w, d);
+        }
+        Some(LaplacianKind::Affine(s)) => {
+            check_primal(&mut ok);
+            let dd = check_dual(&mut ok);
+            let mix = |p: &Lanes, q: &Lanes| -> Lanes { std::array::from_fn(|i| (1.0 - s) * p[i] + s * q[i]) };
+            let lw: [Lanes; 6] = std::array::from_fn(|e| mix(&pw[e], &dw[e]));
+            let ld: [Lanes; 4] = std::array::from_fn(|c| mix(&pd[c], &dd[c]));
+            lanes_finite(&lw, &mut ok);
+            lanes_finite(&ld, &mut ok);
+            transpose(&lw, &ld, w, d);
         }
     }
     if let Some(kind) = request.mass {
-        for (i, ok) in ok.iter_mut().enumerate() {
-            *ok &= volume[i].is_normal();
-        }
         let values: [Lanes; 4] = match kind {
-            MassKind::Barycentric => [std::array::from_fn(|i| volume[i] / 4.0); 4],
-            MassKind::Circumcentric => dm,
-            MassKind::Fem => [volume; 4],
+            MassKind::Circumcentric => {
+                lanes_in_range(&dm, &mut ok);
+                dm
+            }
+            MassKind::Barycentric | MassKind::Fem => {
+                for i in 0..LANES {
+                    ok[i] &= volume[i].is_normal();
+                }
+                let per_corner = if kind == MassKind::Fem { 1.0 } else { 4.0 };
+                let v: Lanes = std::array::from_fn(|i| volume[i] / per_corner);
+                lanes_finite(&[v], &mut ok);
+                [v; 4]
+            }
             MassKind::Mixed => unreachable!("no batch serves the mixed mass"),
         };
-        all_finite(&values, &mut ok);
-        for (k, out) in m.iter_mut().enumerate() {
-            *out = std::array::from_fn(|c| values[c][k]);
+        for (i, out) in m.iter_mut().enumerate() {
+            *out = std::array::from_fn(|c| values[c][i]);
         }
     }
     ok
+}
+
+/// [`in_range`] of every lane of `v` (`[value][lane]`), into `ok`.
+fn lanes_in_range(v: &[Lanes], ok: &mut [bool; LANES]) {
+    for (i, ok) in ok.iter_mut().enumerate() {
+        let largest = v.iter().fold(0.0f64, |m, x| m.max(x[i].abs()));
+        *ok &= v.iter().all(|x| x[i].is_finite()) && largest >= f64::MIN_POSITIVE;
+    }
+}
+
+/// [`each_normal`] of every lane of `v`, into `ok`.
+fn lanes_each_normal(v: &[Lanes], ok: &mut [bool; LANES]) {
+    for (i, ok) in ok.iter_mut().enumerate() {
+        *ok &= v.iter().all(|x| x[i].is_normal());
+    }
+}
+
+/// [`finite`] of every lane of `v`, into `ok`.
+fn lanes_finite(v: &[Lanes], ok: &mut [bool; LANES]) {
+    for (i, ok) in ok.iter_mut().enumerate() {
+        *ok &= v.iter().all(|x| x[i].is_finite());
+    }
+}
+
+/// [`corner_sums`] of every lane of the tet weights `w` (`[edge][lane]`), in its order.
+fn lanes_corner_sums(w: &[Lanes; 6]) -> [Lanes; 4] {
+    let mut d = [[0.0; LANES]; 4];
+    for (&(a, b), x) in super::tet::EDGES.iter().zip(w) {
+        for i in 0..LANES {
+            d[a][i] -= x[i];
+            d[b][i] -= x[i];
+        }
+    }
+    d
 }
 
 #[cfg(test)]
@@ -342,25 +510,28 @@ mod tests {
         for request in kinds.iter().flat_map(|&l| masses.iter().map(move |&m| Request { laplacian: Some(l), mass: Some(m) })) {
             for (g, group) in cells.chunks(LANES).enumerate() {
                 let group = &group[..group.len() - g % 3]; // partly filled lanes too
-                let (mut w, mut m) = ([[0.0; 6]; LANES], [[0.0; 4]; LANES]);
-                let (mut pw, mut pm) = ([[0.0; 6]; LANES], [[0.0; 4]; LANES]);
-                let done = tets_at_once(&points, group, request, &mut w, &mut m);
-                let done_precise = tets_precise_at_once(&points, group, request, &mut pw, &mut pm);
+                let (mut w, mut d, mut m) = ([[0.0; 6]; LANES], [[0.0; 4]; LANES], [[0.0; 4]; LANES]);
+                let (mut pw, mut pd, mut pm) = ([[0.0; 6]; LANES], [[0.0; 4]; LANES], [[0.0; 4]; LANES]);
+                let done = tets_at_once(&points, group, request, Outputs { w: &mut w, d: &mut d, m: &mut m });
+                let out = Outputs { w: &mut pw, d: &mut pd, m: &mut pm };
+                let done_precise = tets_precise_at_once(&points, group, request, out);
                 for (i, cell) in group.iter().enumerate() {
                     let x = cell.map(|v| &points[3 * v as usize..][..3]);
                     let local = crate::element::frame::local_tet(x, &mut []);
                     let el = Element::<Tet>::new(local, &points, 3, *cell, None, false);
                     let expected = (el.laplacian(request.laplacian.unwrap()), el.corner_mass(request.mass.unwrap()));
                     assert!(!(done[i] && done_precise[i]), "one route per tet");
-                    let (got_w, got_m) = match (done[i], done_precise[i]) {
-                        (true, _) => (w[i], m[i]),
-                        (_, true) => (pw[i], pm[i]),
+                    let (got_w, got_d, got_m) = match (done[i], done_precise[i]) {
+                        (true, _) => (w[i], d[i], m[i]),
+                        (_, true) => (pw[i], pd[i], pm[i]),
                         _ => continue,
                     };
                     plain += done[i] as usize;
                     precise += done_precise[i] as usize;
                     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                    assert_eq!(bits(&got_w), bits(&expected.0.expect("computed")), "{request:?} {x:?}");
+                    let (ew, ed) = expected.0.expect("computed");
+                    assert_eq!(bits(&got_w), bits(&ew), "{request:?} {x:?}");
+                    assert_eq!(bits(&got_d), bits(&ed), "{request:?} {x:?}");
                     assert_eq!(bits(&got_m), bits(&expected.1.expect("computed")), "{request:?} {x:?}");
                 }
             }

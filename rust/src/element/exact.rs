@@ -18,8 +18,9 @@
 //! "Adaptive precision floating-point arithmetic", 1997) whose value is then rounded.
 //!
 //! [`Dd`] (double-double, about 32 significant digits) is the arithmetic of the kernels'
-//! precise path: the elements flatter than a float evaluation can serve are evaluated in it
-//! from their exact edge vectors ([`exact_edges`]) and exact determinant ([`det3_dd`]).
+//! precise path, with a bound on its error ([`crate::element::bounded::Bd`]): the
+//! elements flatter than a float evaluation can serve are evaluated in it from their exact
+//! edge vectors ([`exact_edges`]) and exact determinant ([`det3_dd`]).
 
 use crate::element::tet::batch::{Lanes, LANES};
 
@@ -381,14 +382,10 @@ fn difference(a: f64, b: f64, s: f64) -> (f64, f64) {
     (hi * s, lo * s)
 }
 
-/// The exact scaled edges `(x_k - x_0) s`, `k = 1, 2, 3`, as double-doubles.
-pub fn exact_edges(x: [[f64; 3]; 4], s: f64) -> [[Dd; 3]; 3] {
-    std::array::from_fn(|k| {
-        std::array::from_fn(|c| {
-            let (hi, lo) = difference(x[0][c], x[k + 1][c], s);
-            Dd { hi, lo }
-        })
-    })
+/// The exact edges `x_k - x_0`, `k = 1, 2, 3`, as unevaluated sums `(hi, lo)` of two
+/// doubles (to be scaled by the frame's power of two).
+pub fn exact_edges(x: [[f64; 3]; 4]) -> [[(f64, f64); 3]; 3] {
+    std::array::from_fn(|k| std::array::from_fn(|c| two_sum(x[k + 1][c], -x[0][c])))
 }
 
 /// `det[x1 - x0, x2 - x0, x3 - x0] s^3` rounded from its exact value, `s` a power of two
@@ -508,7 +505,7 @@ mod tests {
         let o = 1e6 + 0.5;
         let x = [[o, o, 0.0], [o + 1.0, o, 0.0], [o, o + 2.0, 0.0], [o + 0.25, o + 0.5, 2f64.powi(-60)]];
         assert_eq!(det3_dd(x, 1.0).to_f64(), 2.0 * 2f64.powi(-60));
-        assert_eq!(exact_edges(x, 0.5)[2][2].to_f64(), 2f64.powi(-61));
+        assert_eq!(exact_edges(x)[2][2], (2f64.powi(-60), 0.0));
     }
 
     #[test]

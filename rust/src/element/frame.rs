@@ -8,7 +8,8 @@
 //! coordinates as large as 1e150 or as small as 1e-150 neither overflow nor underflow in
 //! the kernels' fourth-degree products.
 
-use crate::element::exact::{det3_dd, exact_edges, two_sum, Dd};
+use crate::element::bounded::Bd;
+use crate::element::exact::{det3_dd, exact_edges, two_sum};
 use glam::{DVec2, DVec3};
 
 /// A tet as seen by the kernels: `edges[k-1] = (x_k - x_0) / scale`, `scale` a power of two.
@@ -34,29 +35,33 @@ impl LocalTet {
     }
 }
 
-/// A tet's corners in its own 3-space in double-double (the first at the origin), scaled by
-/// `1 / scale`, and their determinant: the frame of the kernels' precise path. In R^3 the
-/// edges and the determinant are exact (then rounded to double-double); in R^d, `d > 3`, a
-/// Gram-Schmidt QR factorisation (twice) in double-double.
-pub(crate) fn precise_tet(x: [&[f64]; 4], scale: f64) -> ([[Dd; 3]; 4], Dd) {
+/// A tet's corners in its own 3-space in double-double with error bounds ([`Bd`]; the
+/// first corner at the origin), scaled by `1 / scale`, and their determinant: the frame
+/// of the kernels' precise path. In R^3 the edges and the determinant are exact (then
+/// rounded to double-double; bounded where they leave the normal range); in R^d, `d > 3`,
+/// a Gram-Schmidt QR factorisation (twice) in double-double.
+pub(crate) fn precise_tet(x: [&[f64]; 4], scale: f64) -> ([[Bd; 3]; 4], Bd) {
     let inv = 1.0 / scale;
-    let zero = Dd::default();
+    let zero = Bd::default();
     if x[0].len() == 3 {
         let corners = x.map(|p| [p[0], p[1], p[2]]);
-        let e = exact_edges(corners, inv);
-        return ([[zero; 3], e[0], e[1], e[2]], det3_dd(corners, inv));
+        let e = exact_edges(corners).map(|edge| edge.map(|(hi, lo)| Bd::scaled(hi, lo, inv)));
+        let det = det3_dd(corners, inv);
+        // rounded from the exact value, but for products below the normal range
+        let det = Bd::new(det, DET_DD_ERROR * det.hi.abs() + DET_DD_FLOOR);
+        return ([[zero; 3], e[0], e[1], e[2]], det);
     }
     let d = x[0].len();
-    let edge = |k: usize| -> Vec<Dd> {
+    let edge = |k: usize| -> Vec<Bd> {
         (0..d)
             .map(|c| {
                 let (hi, lo) = two_sum(x[k][c], -x[0][c]);
-                Dd { hi: hi * inv, lo: lo * inv }
+                Bd::scaled(hi, lo, inv)
             })
             .collect()
     };
-    let dot = |a: &[Dd], b: &[Dd]| a.iter().zip(b).fold(zero, |s, (p, q)| s + *p * *q);
-    let mut q: Vec<Vec<Dd>> = Vec::with_capacity(3);
+    let dot = |a: &[Bd], b: &[Bd]| a.iter().zip(b).fold(zero, |s, (p, q)| s + *p * *q);
+    let mut q: Vec<Vec<Bd>> = Vec::with_capacity(3);
     let mut r = [[zero; 3]; 3];
     for k in 0..3 {
         let mut v = edge(k + 1);
@@ -69,7 +74,7 @@ pub(crate) fn precise_tet(x: [&[f64]; 4], scale: f64) -> ([[Dd; 3]; 4], Dd) {
         }
         let norm = dot(&v, &v).sqrt();
         r[k][k] = norm;
-        if norm.hi > 0.0 {
+        if norm.v.hi > 0.0 {
             v.iter_mut().for_each(|vc| *vc = *vc / norm);
         }
         q.push(v);
@@ -77,6 +82,11 @@ pub(crate) fn precise_tet(x: [&[f64]; 4], scale: f64) -> ([[Dd; 3]; 4], Dd) {
     let corners = [[zero; 3], [r[0][0], zero, zero], [r[0][1], r[1][1], zero], [r[0][2], r[1][2], r[2][2]]];
     (corners, r[0][0] * r[1][1] * r[2][2])
 }
+
+/// The relative error of [`det3_dd`] (its rounding of the exact expansion to
+/// double-double) and its absolute error where the expansion's products underflow.
+const DET_DD_ERROR: f64 = 1.0 / (1u128 << 104) as f64;
+const DET_DD_FLOOR: f64 = f64::from_bits(1 << 14); // 2^-1060, subnormal
 
 /// `det[e1, e2, e3]` of the scaled edges of the corners `x` (prescaled by `pre`, scaled by
 /// `inv`), from the `f64` evaluation when its error bound allows, else exactly.

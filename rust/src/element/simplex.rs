@@ -5,11 +5,12 @@
 //! implementations below only say how many corners and which edges an element has and
 //! which kernels of [`super::tet`] and [`super::tri`] compute its contributions.
 
-use super::evaluate::{tets_at_once, tets_precise_at_once, Request};
+use super::evaluate::{tets_at_once, tets_precise_at_once, Outputs, Request};
 use super::frame::{local_tet, local_tri, LocalTet, LocalTri};
 use super::tet::batch::LANES;
 use super::tet::Placement;
 use super::{tet, tri};
+use crate::options::LaplacianKind;
 use std::fmt::Debug;
 
 /// Fixed-size per-element values (`[f64; K]`): edge weights or corner masses.
@@ -51,17 +52,41 @@ pub trait Simplex: Copy + Debug + Default + Send + Sync + 'static {
     fn local(points: &[f64], dim: usize, cell: &Self::Cell, scratch: &mut [f64]) -> Self::Local;
     /// Scratch length for [`Simplex::local`] in `dim` dimensions.
     fn scratch_len(dim: usize) -> usize;
-    /// Whether the corners are affinely dependent (zero measure).
+    /// Whether the corners may be affinely dependent: the frame's determinant is zero
+    /// ([`Simplex::exactly_degenerate`] decides).
     fn is_degenerate(l: &Self::Local) -> bool;
-    /// Unsigned volume (area) in the caller's units.
+    /// Whether the corners (of an element whose frame [`Simplex::is_degenerate`]) are
+    /// affinely dependent, decided exactly (a frame's determinant can underflow); the
+    /// frame's word by default.
+    fn exactly_degenerate(corners: &[&[f64]]) -> bool {
+        let _ = corners;
+        true
+    }
+    /// Unsigned volume (area) in the caller's units, from the frame.
     fn measure(l: &Self::Local) -> f64;
-    /// Primal (P1 FEM / cotan) edge weights.
-    fn primal(l: &Self::Local) -> Self::EdgeValues;
-    /// [`Simplex::primal`] in extended precision from the element's input corners (the
-    /// precise path of the accuracy rule), or `None` when this kind has none.
-    fn primal_precise(corners: &[&[f64]], l: &Self::Local) -> Option<Self::EdgeValues>;
-    /// Barycentric corner masses.
-    fn barycentric(l: &Self::Local) -> Self::CornerValues;
+    /// Whether [`Simplex::measure`] is correctly rounded (the frame's determinant is a
+    /// normal `f64`); by default it is.
+    fn measure_trusted(l: &Self::Local) -> bool {
+        let _ = l;
+        true
+    }
+    /// The measure from the element's input corners, correctly rounded whatever the frame.
+    fn measure_exact(corners: &[&[f64]], l: &Self::Local) -> f64 {
+        let _ = corners;
+        Self::measure(l)
+    }
+    /// Whether the corners' diagonal entries of the Laplacian `kind` are the element's own
+    /// (the tet primal's `-Vol |grad lambda_a|^2`), not minus the sums of its edge values
+    /// at each corner ([`corner_sums`]), which a scatter can form as it adds them up.
+    fn own_diagonal(kind: LaplacianKind) -> bool {
+        let _ = kind;
+        false
+    }
+    /// Primal (P1 FEM / cotan) edge weights and the corners' diagonal entries.
+    fn primal(l: &Self::Local) -> (Self::EdgeValues, Self::CornerValues);
+    /// [`Simplex::primal`] by the precise path of the accuracy rule from the element's
+    /// input corners, or `None` when this kind has none.
+    fn primal_precise(corners: &[&[f64]], l: &Self::Local) -> Option<(Self::EdgeValues, Self::CornerValues)>;
     /// Whether `f64` serves the element's kernels to the documented accuracy (else the
     /// precise path of the accuracy rule, [`crate::element`]).
     fn well_shaped(l: &Self::Local) -> bool;
@@ -79,33 +104,34 @@ pub trait Simplex: Copy + Debug + Default + Send + Sync + 'static {
     ) -> Option<(Self::EdgeValues, Self::CornerValues)>;
     /// `request` (one that is [`Request::batched`]) on up to [`LANES`] elements `cells` of
     /// `points` (`dim` columns, no vertex weights, no boundary fix) at once, by vectorised
-    /// `f64` kernels: which of them it
-    /// computed (into `w[k]` / `m[k]`), bit for bit as the one-element path would; the
-    /// others take that path. None of them by default.
-    fn at_once(
-        points: &[f64],
-        dim: usize,
-        cells: &[Self::Cell],
-        request: Request,
-        w: &mut [Self::EdgeValues],
-        m: &mut [Self::CornerValues],
-    ) -> [bool; LANES] {
-        let _ = (points, dim, cells, request, w, m);
+    /// `f64` kernels: which of them it computed (into `w[k]`, the Laplacian's diagonal
+    /// entries into `d[k]`, `m[k]`), bit for bit as the one-element path would; the others
+    /// take that path. None of them by default.
+    fn at_once(points: &[f64], dim: usize, cells: &[Self::Cell], request: Request, out: Out<'_, Self>) -> [bool; LANES] {
+        let _ = (points, dim, cells, request, out);
         [false; LANES]
     }
     /// [`Simplex::at_once`] for the elements of the precise path of the accuracy rule,
     /// computed together in extended precision; none of them by default.
-    fn precise_at_once(
-        points: &[f64],
-        dim: usize,
-        cells: &[Self::Cell],
-        request: Request,
-        w: &mut [Self::EdgeValues],
-        m: &mut [Self::CornerValues],
-    ) -> [bool; LANES] {
-        let _ = (points, dim, cells, request, w, m);
+    fn precise_at_once(points: &[f64], dim: usize, cells: &[Self::Cell], request: Request, out: Out<'_, Self>) -> [bool; LANES] {
+        let _ = (points, dim, cells, request, out);
         [false; LANES]
     }
+}
+
+/// The outputs of a batch of elements of `S` (one slot per lane): edge values, the
+/// Laplacian's diagonal entries, corner masses.
+pub type Out<'o, S> = (&'o mut [<S as Simplex>::EdgeValues], &'o mut [<S as Simplex>::CornerValues], &'o mut [<S as Simplex>::CornerValues]);
+
+/// Minus the sums of an element's edge values `w` at each corner (edges in local order):
+/// the diagonal entries of a Laplacian defined by its off-diagonals (the dual's).
+pub fn corner_sums<S: Simplex>(w: &S::EdgeValues) -> S::CornerValues {
+    let mut d = S::CornerValues::default();
+    for (&(a, b), &x) in S::EDGES.iter().zip(w.as_ref()) {
+        d.as_mut()[a] -= x;
+        d.as_mut()[b] -= x;
+    }
+    d
 }
 
 /// Tetrahedra (in R^3 or immersed in R^d, d > 3).
@@ -149,20 +175,34 @@ impl Simplex for Tet {
         tet::is_degenerate(l)
     }
 
+    fn exactly_degenerate(corners: &[&[f64]]) -> bool {
+        tet::exactly_flat([corners[0], corners[1], corners[2], corners[3]])
+    }
+
+    fn own_diagonal(kind: LaplacianKind) -> bool {
+        kind != LaplacianKind::Dual
+    }
+
     fn measure(l: &LocalTet) -> f64 {
         tet::volume(l)
     }
 
-    fn primal(l: &LocalTet) -> [f64; 6] {
-        tet::primal_weights(l)
+    fn measure_trusted(l: &LocalTet) -> bool {
+        l.det.abs() >= f64::MIN_POSITIVE
     }
 
-    fn primal_precise(corners: &[&[f64]], l: &LocalTet) -> Option<[f64; 6]> {
-        Some(tet::primal_weights_precise([corners[0], corners[1], corners[2], corners[3]], l))
+    fn measure_exact(corners: &[&[f64]], l: &LocalTet) -> f64 {
+        tet::volume_exact([corners[0], corners[1], corners[2], corners[3]], l)
     }
 
-    fn barycentric(l: &LocalTet) -> [f64; 4] {
-        tet::barycentric_mass(l)
+    fn primal(l: &LocalTet) -> ([f64; 6], [f64; 4]) {
+        let p = tet::primal(l);
+        (p.weights, p.diagonal)
+    }
+
+    fn primal_precise(corners: &[&[f64]], l: &LocalTet) -> Option<([f64; 6], [f64; 4])> {
+        let p = tet::primal_precise([corners[0], corners[1], corners[2], corners[3]], l);
+        Some((p.weights, p.diagonal))
     }
 
     fn well_shaped(l: &LocalTet) -> bool {
@@ -179,18 +219,18 @@ impl Simplex for Tet {
         (d.weights, d.cell_volumes)
     }
 
-    fn at_once(points: &[f64], dim: usize, cells: &[[u32; 4]], request: Request, w: &mut [[f64; 6]], m: &mut [[f64; 4]]) -> [bool; LANES] {
+    fn at_once(points: &[f64], dim: usize, cells: &[[u32; 4]], request: Request, (w, d, m): Out<'_, Self>) -> [bool; LANES] {
         if dim != 3 {
             return [false; LANES];
         }
-        tets_at_once(points, cells, request, w, m)
+        tets_at_once(points, cells, request, Outputs { w, d, m })
     }
 
-    fn precise_at_once(points: &[f64], dim: usize, cells: &[[u32; 4]], request: Request, w: &mut [[f64; 6]], m: &mut [[f64; 4]]) -> [bool; LANES] {
+    fn precise_at_once(points: &[f64], dim: usize, cells: &[[u32; 4]], request: Request, (w, d, m): Out<'_, Self>) -> [bool; LANES] {
         if dim != 3 {
             return [false; LANES];
         }
-        tets_precise_at_once(points, cells, request, w, m)
+        tets_precise_at_once(points, cells, request, Outputs { w, d, m })
     }
 
     fn dual_precise(corners: &[&[f64]], l: &LocalTet, weights: Option<&[f64; 4]>, placement: Placement) -> Option<([f64; 6], [f64; 4])> {
@@ -229,16 +269,13 @@ impl Simplex for Tri {
         tri::area(l)
     }
 
-    fn primal(l: &LocalTri) -> [f64; 3] {
-        tri::cotan_weights(l)
+    fn primal(l: &LocalTri) -> ([f64; 3], [f64; 3]) {
+        let w = tri::cotan_weights(l);
+        (w, corner_sums::<Tri>(&w))
     }
 
-    fn primal_precise(_: &[&[f64]], _: &LocalTri) -> Option<[f64; 3]> {
+    fn primal_precise(_: &[&[f64]], _: &LocalTri) -> Option<([f64; 3], [f64; 3])> {
         None
-    }
-
-    fn barycentric(l: &LocalTri) -> [f64; 3] {
-        [tri::area(l) / 3.0; 3]
     }
 
     fn well_shaped(_: &LocalTri) -> bool {

@@ -7,16 +7,15 @@
 //! [`super::primal_weights`], [`super::dual`], [`super::volume`]), so its values are bit for
 //! bit those of that path. A lane that the one-tet path would send anywhere else is not
 //! [`Frames::plain`]: its differences leave the normal range (the frame's prescaling), its
-//! determinant is not trusted (computed exactly instead), a face is small enough for the
-//! careful unit-vector forms, it is not well shaped (the precise path), or it is flat. The
-//! caller computes those lanes one by one (`crate::element::evaluate`).
+//! determinant is not trusted (computed exactly instead), it is not well shaped (the
+//! precise path), or it is flat. The caller computes those lanes one by one
+//! (`crate::element::evaluate`).
 //!
 //! Operation counts per tet (additions, multiplications, divisions, comparisons; the
 //! `criterion` bench `benches/kernels.rs` prints them beside the time per tet):
 //! [`FRAME_FLOPS`], [`PRIMAL_FLOPS`], [`DUAL_FLOPS`], [`MASS_FLOPS`].
 
-use super::careful::SMALL;
-use super::{EDGES, FACES, OPPOSITE, WELL_SHAPED};
+use super::{EDGES, OPPOSITE, WELL_SHAPED};
 use crate::element::exact::{DET_ERROR, DET_RTOL};
 
 /// Tets per batch.
@@ -28,11 +27,11 @@ pub type Lanes = [f64; LANES];
 /// Floating-point operations per tet of [`Frames::new`]: edges and their scaling (12), the
 /// determinant and its error bound (9 + 15 + 3), the face normals (6 + 4 x 9), their
 /// squared lengths (4 x 5), the circumcentre (3 x 5 + 6 + 4) and the well-shapedness test
-/// (3 + 4 + 5 + 1), range checks and maxima (13).
-pub const FRAME_FLOPS: u32 = 12 + 27 + 42 + 20 + 25 + 13 + 13;
+/// (3 + 4 + 5 + 3), range checks and maxima (13).
+pub const FRAME_FLOPS: u32 = 12 + 27 + 42 + 20 + 25 + 15 + 13;
 /// Floating-point operations per tet of [`Frames::primal`] beyond the frame: the factor
-/// (3) and six dot products of normals, scaled (6 x 6).
-pub const PRIMAL_FLOPS: u32 = 3 + 36;
+/// (3), six dot products of normals, scaled (6 x 6), and the four diagonal entries (4).
+pub const PRIMAL_FLOPS: u32 = 3 + 36 + 4;
 /// Floating-point operations per tet of [`Frames::dual`] beyond the frame: barycentric
 /// coordinates of the circumcentre (3 + 4 x 6), their factors (4 x 3), and per edge two
 /// dot products of differences (2 x 11), the weight (4), the pieces (9) and their sums (2),
@@ -157,12 +156,7 @@ impl Frames {
         });
         let normals = [e3.sub(e1).cross(e2.sub(e1)), e2.cross(e3), e3.cross(e1), e1.cross(e2)];
         let normal2 = normals.map(|n| n.length_squared());
-        // the faces' products of two squared edge lengths (careful::has_tiny_face)
         let x = [V3::ZERO, e1, e2, e3];
-        let faces = FACES.map(|[p, q, r]| {
-            let (a, b) = (x[q].sub(x[p]).length_squared(), x[r].sub(x[p]).length_squared());
-            lanes(|i| a[i] * b[i])
-        });
         let centre = V3::scaled(e1.length_squared(), normals[1])
             .add(V3::scaled(e2.length_squared(), normals[2]))
             .add(V3::scaled(e3.length_squared(), normals[3]))
@@ -173,22 +167,23 @@ impl Frames {
         let plain = std::array::from_fn(|i| {
             let in_range = (TINY_DIFF..HUGE_DIFF).contains(&max_abs[i]);
             let trusted = DET_ERROR * permanent[i] <= DET_RTOL * det[i].abs();
-            let extreme = normal2.iter().any(|n| n[i] < SMALL);
-            let tiny_face = faces.iter().any(|f| f[i] < SMALL);
-            let well_shaped = 9.0 * det[i] * det[i] >= 16.0 * WELL_SHAPED * WELL_SHAPED * largest[i] * c2[i];
-            in_range && trusted && !extreme && !tiny_face && well_shaped && det[i] != 0.0
+            let det2 = det[i] * det[i];
+            let well_shaped = det2 >= f64::MIN_POSITIVE && 9.0 * det2 >= 16.0 * WELL_SHAPED * WELL_SHAPED * largest[i] * c2[i];
+            in_range && trusted && well_shaped
         });
         Frames { x, normals, normal2, centre, scale, det, plain }
     }
 
-    /// The primal weights of every lane ([`super::primal_weights`]), `[edge][lane]`.
+    /// The primal weights and diagonal entries of every lane ([`super::primal`]),
+    /// `[edge][lane]` and `[corner][lane]`.
     #[inline]
-    pub fn primal(&self) -> [Lanes; 6] {
+    pub fn primal(&self) -> ([Lanes; 6], [Lanes; 4]) {
         let k = lanes(|i| -self.scale[i] / (6.0 * self.det[i].abs()));
-        EDGES.map(|(a, b)| {
+        let weights = EDGES.map(|(a, b)| {
             let d = self.normals[a].dot(self.normals[b]);
             lanes(|i| d[i] * k[i])
-        })
+        });
+        (weights, self.normal2.map(|n| lanes(|i| n[i] * k[i])))
     }
 
     /// The dual weights and cell volumes of every lane ([`super::dual`]), `[edge][lane]`
@@ -231,7 +226,7 @@ const HUGE_DIFF: f64 = f64::from_bits(((1023 + 1000) as u64) << 52);
 mod tests {
     use super::*;
     use crate::element::frame::local_tet;
-    use crate::element::tet::{dual, primal_weights, volume, well_shaped};
+    use crate::element::tet::{dual, primal, volume, well_shaped};
 
     /// Tets of every kind the one-tet path tells apart: plain, flat, slivers, needles,
     /// tiny and huge ones, random ones far from the origin.
@@ -269,7 +264,7 @@ mod tests {
             let corners: [[Lanes; 3]; 4] =
                 std::array::from_fn(|k| std::array::from_fn(|a| lanes(|i| batch.get(i).map_or(0.0, |t| t[k][a]))));
             let f = Frames::new(&corners);
-            let (p, (w, m), v) = (f.primal(), f.dual(), f.volume());
+            let ((p, pd), (w, m), v) = (f.primal(), f.dual(), f.volume());
             for (i, x) in batch.iter().enumerate() {
                 let t = local_tet([&x[0], &x[1], &x[2], &x[3]], &mut []);
                 let expect_plain = t.det != 0.0 && well_shaped(&t) && f.scale[i] == t.scale && f.det[i] == t.det
@@ -280,12 +275,13 @@ mod tests {
                 plain += 1;
                 assert!(expect_plain, "tet {x:?} is plain in the batch only");
                 assert_eq!(f.det[i].to_bits(), t.det.to_bits());
-                let d = dual(&t);
+                let (d, q) = (dual(&t), primal(&t));
                 for e in 0..6 {
-                    assert_eq!(p[e][i].to_bits(), primal_weights(&t)[e].to_bits(), "{x:?}");
+                    assert_eq!(p[e][i].to_bits(), q.weights[e].to_bits(), "{x:?}");
                     assert_eq!(w[e][i].to_bits(), d.weights[e].to_bits(), "{x:?}");
                 }
                 for c in 0..4 {
+                    assert_eq!(pd[c][i].to_bits(), q.diagonal[c].to_bits(), "{x:?}");
                     assert_eq!(m[c][i].to_bits(), d.cell_volumes[c].to_bits(), "{x:?}");
                 }
                 assert_eq!(v[i].to_bits(), volume(&t).to_bits());

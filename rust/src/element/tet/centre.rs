@@ -9,7 +9,6 @@
 //! edge of a face crosses the face's plane at right angles at the face's centre, so the
 //! part of it inside a tet is the signed distance of the tet's centre from the face.
 
-use super::careful::unit;
 use super::power::{centres, normals, relative, relative_precise, Real, V3};
 use super::FACES;
 use crate::element::frame::{precise_tet, LocalTet};
@@ -38,12 +37,22 @@ pub struct Centres {
     pub areas: [f64; 4],
 }
 
+/// `|v|` without overflow or underflow in its squares (divided by its largest component
+/// first).
+fn scaled_length(v: DVec3) -> f64 {
+    let m = v.abs().max_element();
+    if m == 0.0 || !m.is_finite() {
+        return m;
+    }
+    m * (v / m).length()
+}
+
 /// The centres of a tet with corners `x` (`x[0] = 0`, scaled frame), determinant `det`,
 /// vertex weights `w` relative to corner 0 (frame units), in the caller's units (`scale`).
 fn centres_of<R: Real>(x: [V3<R>; 4], det: R, w: [R; 4], scale: f64) -> Centres {
     let (v, _, abs_det) = centres(x, det, w);
     // |n_l| by a scaled norm of its rounding: no square leaves the f64 range
-    let norm = normals(x).map(|n| unit(DVec3::from_array(n.map(Real::to_f64))).1);
+    let norm = normals(x).map(|n| scaled_length(DVec3::from_array(n.map(Real::to_f64))));
     let point = |p: V3<R>| p.map(|c| c.to_f64() * scale);
     let face = |l: usize| {
         let mut p = [R::from(0.0); 3];

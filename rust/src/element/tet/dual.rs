@@ -28,9 +28,8 @@ pub struct Dual {
 /// `v = |ab|^2 ((x_a - x_k).(x_b - x_k)) lambda_l(c) |det| / (24 |n_l|^2)`: every factor is
 /// independent of the tet's orientation and of its vertex order. Negative pieces (an
 /// obtuse face angle, a circumcenter outside the tet) are how non-Delaunay tets make
-/// negative weights and negative cell volumes. A tet with faces too small for these
-/// products (a needle) goes through the same geometry written with unit vectors,
-/// `w_ab = (cot(gamma_k) h3_l + cot(gamma_l) h3_k) / 4`, with the same precision.
+/// negative weights and negative cell volumes. In `f64` from the frame: the values of a
+/// [well-shaped](super::well_shaped) tet (others take [`super::power_dual_precise`]).
 ///
 /// ```
 /// // The corner tet (SPEC §10): weights 1/4 at the right-angled corner's edges,
@@ -44,10 +43,6 @@ pub struct Dual {
 /// ```
 pub fn dual(t: &LocalTet) -> Dual {
     let f = Frame::new(t);
-    if super::careful::is_extreme(&f) {
-        let (weights, cell_volumes) = super::careful::dual(t);
-        return Dual { weights, cell_volumes };
-    }
     let [_, e1, e2, e3] = f.x;
     // Tet circumcenter relative to x_0.
     let c = (e1.length_squared() * f.normals[1]

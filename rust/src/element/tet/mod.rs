@@ -6,23 +6,22 @@
 //! well-shaped tets.
 
 pub mod batch;
-mod careful;
 mod centre;
 pub mod derivatives;
 pub(crate) mod dual;
 mod mass;
 pub(crate) mod power;
-mod primal;
+pub(crate) mod primal;
 mod quality;
 
 pub use centre::{power_centres, power_centres_precise, Centres};
 pub use dual::{dual, Dual};
 pub use mass::barycentric_mass;
 pub use power::{power_dual, power_dual_precise, Field, Placement, Real};
-pub(crate) use power::circumcentric_dual_precise_lanes;
-pub(crate) use primal::primal_weights_precise_lanes;
-pub use primal::{primal_weights, primal_weights_precise};
-pub use quality::{inside_circumsphere, tet_quality, TetQuality, DELAUNAY_RTOL};
+pub(crate) use power::{circumcentric_dual_precise_lanes, exact_tet};
+pub(crate) use primal::primal_precise_lanes;
+pub use primal::{primal, primal_precise, primal_weights, Primal};
+pub use quality::{inside_circumsphere, quality_from_frame, tet_quality, tet_quality_exact, TetQuality, DELAUNAY_RTOL};
 
 use super::frame::LocalTet;
 use glam::DVec3;
@@ -55,10 +54,42 @@ impl Frame {
     }
 }
 
-/// Whether the tet's corners are affinely dependent: its determinant is zero (exactly, for a
-/// tet in R^3: see [`LocalTet::det`]).
+/// Whether the tet's frame determinant is zero: its corners are affinely dependent, or
+/// the frame's determinant underflows (a needle many orders thinner than long; see
+/// [`exactly_flat`]).
 pub fn is_degenerate(t: &LocalTet) -> bool {
     t.det == 0.0
+}
+
+/// Whether the corners `x` (in R^d) are affinely dependent, decided exactly: in R^3 the
+/// determinant of the edges, in R^d every 3 x 3 minor of the d x 3 edge matrix.
+pub fn exactly_flat(x: [&[f64]; 4]) -> bool {
+    use crate::element::rational::{exactly, Exact};
+    use power::{cross, dot};
+    let d = x[0].len();
+    exactly(|| {
+        let edge = |k: usize, c: usize| Exact::from(x[k][c]) - Exact::from(x[0][c]);
+        let minor = |c: [usize; 3]| {
+            let e = [1, 2, 3].map(|k| c.map(|c| edge(k, c)));
+            dot(e[0], cross(e[1], e[2])).signum()
+        };
+        (0..d).all(|a| (a + 1..d).all(|b| (b + 1..d).all(|c| minor([a, b, c]) == 0)))
+    })
+}
+
+/// The unsigned volume of the tet with corners `x` (`t` their frame), correctly rounded
+/// where the frame's determinant is not a normal `f64`: exactly from the corners in R^3,
+/// from the frame's diagonal scaled one factor at a time in R^d.
+pub fn volume_exact(x: [&[f64]; 4], t: &LocalTet) -> f64 {
+    use crate::element::rational::{exactly, Exact};
+    if x[0].len() != 3 {
+        let [a, b, c] = [t.edges[0].x, t.edges[1].y, t.edges[2].z].map(|r| (r * t.scale).abs());
+        return a * b * c / 6.0;
+    }
+    exactly(|| {
+        let (_, det) = exact_tet(x).expect("a tet in R^3");
+        (det / Exact::from(6.0)).to_f64().abs()
+    })
 }
 
 /// The smallest radius ratio (`3 r_in / R`: 1 for the regular tet, 0 for a flat one) at
@@ -70,21 +101,24 @@ pub const WELL_SHAPED: f64 = 1.0 / 32.0;
 
 /// Whether `f64` serves the tet's kernels to [`crate::element::ACCURACY`]: its radius ratio
 /// is at least [`WELL_SHAPED`] (tested through the lower bound `3 |det| / (4 max_l |n_l|
-/// |c|)`, `c` the circumcentre relative to a corner, without a square root), or its faces
-/// are so small that the kernels take their unit-vector forms (`careful`, exact for
-/// needles along the axes). The other tets are computed in double-double from their exact
-/// input coordinates ([`power_dual_precise`], [`primal_weights_precise`]).
+/// |c|)`, `c` the circumcentre relative to a corner, without a square root), with `det^2`
+/// a normal `f64` (no product of the frame under- or overflows) and the frame's rounded
+/// edges true to the tet (their `f64` determinant is trusted: a needle far longer than
+/// wide can round two edges to one). The other tets are computed by the precise path
+/// ([`power_dual_precise`], [`primal_precise`]).
 pub fn well_shaped(t: &LocalTet) -> bool {
     let f = Frame::new(t);
-    if careful::has_tiny_face(&f) {
-        return true;
-    }
     let [_, e1, e2, e3] = f.x;
+    let rounded = e1.dot(e2.cross(e3));
+    if !crate::element::exact::trusted(rounded, crate::element::exact::permanent(t.edges.map(|e| e.to_array()))) {
+        return false;
+    }
     let c = (e1.length_squared() * f.normals[1] + e2.length_squared() * f.normals[2] + e3.length_squared() * f.normals[3])
         / (2.0 * f.det);
     let largest = f.normals.iter().map(|n| n.length_squared()).fold(0.0, f64::max);
     // rho >= 3 |det| / (4 |n|_max |c|) >= WELL_SHAPED, squared
-    9.0 * f.det * f.det >= 16.0 * WELL_SHAPED * WELL_SHAPED * largest * c.length_squared()
+    let det2 = f.det * f.det;
+    det2 >= f64::MIN_POSITIVE && 9.0 * det2 >= 16.0 * WELL_SHAPED * WELL_SHAPED * largest * c.length_squared()
 }
 
 /// Unsigned volume of the tet (`|det[x1-x0, x2-x0, x3-x0]| / 6`), in the caller's units.

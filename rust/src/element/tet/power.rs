@@ -1,7 +1,8 @@
 //! Duals of one tet through the barycentric coordinates of their dual vertices: the power
 //! (weighted) centres of a regular triangulation, the barycentric boundary fix (paper
 //! Sec. 6) and the snapped centres of the mixed mass, in `f64` or, for the elements a float
-//! evaluation cannot serve, in double-double ([`Dd`]).
+//! evaluation cannot serve, in double-double with error bounds ([`Bd`]) or exactly
+//! ([`Exact`]).
 //!
 //! # The pieces as products
 //! The piece of the flag (vertex `a`, edge `ab`, face `abk`; `l` the fourth corner) is the
@@ -32,16 +33,21 @@
 //! # Accuracy
 //! Every step is a product or a short sum: weights of any size (tested up to `1e6` times
 //! the squared edges) lose nothing. For the shapes where `f64` cannot serve (see the
-//! accuracy rule of [`crate::element`]) the same code runs in [`Dd`] from the exact edges.
+//! accuracy rule of [`crate::element`]) the same code runs in double-double from the exact
+//! edges, with a bound on its error ([`Bd`]); where that bound exceeds the documented
+//! accuracy, in exact rational arithmetic ([`Exact`]) from the input coordinates.
 
 use super::batch::{Lanes, LANES};
 use super::{Dual, Frame, EDGES, FACES, OPPOSITE};
-use crate::element::exact::{two_sum, Dd, DdLanes};
+use crate::element::bounded::{certified, largest, Bd, BdLanes};
+use crate::element::exact::two_sum;
 use crate::element::frame::{precise_tet, LocalTet};
+use crate::element::rational::{exactly, Exact};
+use std::cmp::Ordering;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-/// The arithmetic of the closed forms: `f64`, [`Dd`] for the precise path, or [`DdLanes`]
-/// for several precise elements at once.
+/// The arithmetic of the closed forms: `f64`, [`Bd`] for the precise path, [`BdLanes`] for
+/// several precise elements at once, or [`Exact`].
 pub trait Field:
     Copy + From<f64> + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
 {
@@ -49,10 +55,23 @@ pub trait Field:
     fn oriented(self, det: Self) -> Self;
 }
 
-/// A [`Field`] of single numbers, which can be rounded to `f64` (and compared).
+/// A [`Field`] of single numbers, which can be rounded to `f64` and compared.
 pub trait Real: Field {
     /// The value rounded to `f64`.
     fn to_f64(self) -> f64;
+    /// Whether the sign of the value is certainly that of the exact value it stands for
+    /// (always, but for a [`Bd`] within its error bound of zero).
+    fn sign_certain(self) -> bool {
+        true
+    }
+    /// The value marked as not to be certified (a [`Bd`]'s bound made infinite).
+    fn doubtful(self) -> Self {
+        self
+    }
+    /// The order of two values (by their `f64` roundings; exactly for [`Exact`]).
+    fn compare(self, other: Self) -> Ordering {
+        self.to_f64().total_cmp(&other.to_f64())
+    }
 }
 
 impl Field for f64 {
@@ -69,29 +88,54 @@ impl Real for f64 {
     }
 }
 
-impl Field for Dd {
+impl Field for Bd {
     #[inline]
-    fn oriented(self, det: Dd) -> Dd {
-        if det.to_f64() > 0.0 { self } else { -self }
+    fn oriented(self, det: Bd) -> Bd {
+        let s = if det.to_f64() > 0.0 { self } else { -self };
+        if det.sign_certain() { s } else { s.doubtful() }
     }
 }
 
-impl Real for Dd {
+impl Real for Bd {
     #[inline]
     fn to_f64(self) -> f64 {
-        Dd::to_f64(self)
+        Bd::to_f64(self)
+    }
+
+    fn sign_certain(self) -> bool {
+        self.e == 0.0 || Bd::sign_certain(self)
+    }
+
+    fn doubtful(self) -> Self {
+        Bd::doubtful(self)
     }
 }
 
-impl Field for DdLanes {
+impl Field for BdLanes {
     #[inline(always)]
-    fn oriented(self, det: DdLanes) -> DdLanes {
-        let positive = det.to_f64().map(|d| d > 0.0);
-        let (neg, hi, lo) = (-self, self.hi, self.lo);
-        DdLanes {
-            hi: std::array::from_fn(|i| if positive[i] { hi[i] } else { neg.hi[i] }),
-            lo: std::array::from_fn(|i| if positive[i] { lo[i] } else { neg.lo[i] }),
-        }
+    fn oriented(self, det: BdLanes) -> BdLanes {
+        let positive = det.v.to_f64().map(|d| d > 0.0);
+        let neg = -self;
+        BdLanes::from_fn(|i| {
+            let s = if positive[i] { self.get(i) } else { neg.get(i) };
+            if det.get(i).sign_certain() { s } else { s.doubtful() }
+        })
+    }
+}
+
+impl Field for Exact {
+    fn oriented(self, det: Exact) -> Exact {
+        if det.signum() > 0 { self } else { -self }
+    }
+}
+
+impl Real for Exact {
+    fn to_f64(self) -> f64 {
+        Exact::to_f64(self)
+    }
+
+    fn compare(self, other: Self) -> Ordering {
+        (self - other).signum().cmp(&0)
     }
 }
 
@@ -185,38 +229,70 @@ pub(super) fn centres<R: Field>(x: [V3<R>; 4], det: R, w: [R; 4]) -> (Vertices<R
     (v, len2, abs_det)
 }
 
-/// Moves the dual vertices `v` of a tet with `|det| = abs_det` by `placement`.
+/// The decisions of [`place`], remembering whether any of them rests on a sign the
+/// arithmetic cannot vouch for.
+#[derive(Default)]
+struct Decisions {
+    doubt: bool,
+}
+
+impl Decisions {
+    /// `x <= 0`.
+    fn non_positive<R: Real>(&mut self, x: R) -> bool {
+        self.doubt |= !x.sign_certain();
+        x.to_f64() <= 0.0
+    }
+
+    /// `x < 0`.
+    fn negative<R: Real>(&mut self, x: R) -> bool {
+        self.doubt |= !x.sign_certain();
+        x.to_f64() < 0.0
+    }
+
+    /// The corner (not `skip`) of the most negative of `coords`.
+    fn most_negative<R: Real>(&mut self, coords: &[R; 4], skip: usize) -> usize {
+        let others = || (0..4).filter(|&i| i != skip);
+        let j = others().min_by(|&i, &j| coords[i].compare(coords[j])).expect("3 corners");
+        self.doubt |= others().any(|i| i != j && !(coords[i] - coords[j]).sign_certain());
+        j
+    }
+}
+
+/// Moves the dual vertices `v` of a tet with `|det| = abs_det` by `placement` (made
+/// [`doubtful`](Real::doubtful) when a decision rests on an uncertain sign).
 fn place<R: Real>(v: &mut Vertices<R>, placement: Placement, abs_det: R) {
     let zero = R::from(0.0);
     let (half, quarter, third) = (R::from(0.5), R::from(0.25), R::from(1.0 / 3.0));
-    let outside = |coords: &[R]| coords.iter().any(|b| b.to_f64() <= 0.0);
-    let most_negative = |coords: &[R; 4], skip: usize| {
-        (0..4).filter(|&i| i != skip).min_by(|&i, &j| coords[i].to_f64().total_cmp(&coords[j].to_f64())).expect("3 corners")
-    };
+    let mut decide = Decisions::default();
     match placement {
         Placement::Centres => {}
         Placement::Centroids => {
             for (l, face) in v.face.iter_mut().enumerate() {
-                if outside(&FACES[l].map(|p| face[p])) {
+                if FACES[l].iter().fold(false, |out, &p| decide.non_positive(face[p]) | out) {
                     FACES[l].iter().for_each(|&p| face[p] = third);
                 }
             }
-            if outside(&v.tet) {
+            if v.tet.iter().fold(false, |out, &m| decide.non_positive(m) | out) {
                 v.tet = [abs_det * quarter; 4];
             }
         }
         Placement::Snapped => {
             for (l, face) in v.face.iter_mut().enumerate() {
-                if FACES[l].iter().any(|&p| face[p].to_f64() < 0.0) {
-                    let j = most_negative(face, l);
+                if FACES[l].iter().fold(false, |out, &p| decide.negative(face[p]) | out) {
+                    let j = decide.most_negative(face, l);
                     FACES[l].iter().for_each(|&p| face[p] = if p == j { zero } else { half });
                 }
             }
-            if v.tet.iter().any(|m| m.to_f64() < 0.0) {
-                let j = most_negative(&v.tet, 4);
+            if v.tet.iter().fold(false, |out, &m| decide.negative(m) | out) {
+                let j = decide.most_negative(&v.tet, 4);
                 v.tet = v.face[j].map(|b| b * abs_det);
             }
         }
+    }
+    if decide.doubt {
+        v.edge = v.edge.map(R::doubtful);
+        v.face = v.face.map(|f| f.map(R::doubtful));
+        v.tet = v.tet.map(R::doubtful);
     }
 }
 
@@ -240,31 +316,42 @@ fn pieces<R: Field>(v: &Vertices<R>, len2: [R; 6]) -> ([R; 6], [R; 4]) {
 
 /// The dual of a tet with corners `x` (`x[0] = 0`, scaled frame), determinant `det`,
 /// vertex weights `w` relative to corner 0 (frame units), vertices placed by `placement`.
-fn dual_of<R: Real>(x: [V3<R>; 4], det: R, w: [R; 4], placement: Placement) -> ([R; 6], [R; 4]) {
+pub(crate) fn dual_of<R: Real>(x: [V3<R>; 4], det: R, w: [R; 4], placement: Placement) -> ([R; 6], [R; 4]) {
     let (mut v, len2, abs_det) = centres(x, det, w);
     place(&mut v, placement, abs_det);
     pieces(&v, len2)
 }
 
 /// [`power_dual_precise`] of [`LANES`] tets at once without vertex weights, at the
-/// circumcentres: `corners[i]` and `det[i]` the precise frame of lane `i`
-/// ([`precise_tet`]), `scale[i]` its scale. Bit for bit the one-tet function.
-pub(crate) fn circumcentric_dual_precise_lanes(corners: &[[[Dd; 3]; 4]; LANES], det: [Dd; LANES], scale: Lanes) -> ([Lanes; 6], [Lanes; 4]) {
-    let x: [V3<DdLanes>; 4] = std::array::from_fn(|k| std::array::from_fn(|a| DdLanes::from_fn(|i| corners[i][k][a])));
-    let det = DdLanes::from_fn(|i| det[i]);
-    let (v, len2, _) = centres(x, det, [DdLanes::from(0.0); 4]);
+/// circumcentres, in [`BdLanes`]: `corners[i]` and `det[i]` the precise frame of lane `i`
+/// ([`precise_tet`]), `scale[i]` its scale. The values of the lanes whose values the
+/// bounds certify (flagged `true`), bit for bit the one-tet function's; the others take
+/// exact arithmetic one by one.
+pub(crate) fn circumcentric_dual_precise_lanes(
+    corners: &[[[Bd; 3]; 4]; LANES],
+    det: [Bd; LANES],
+    scale: Lanes,
+) -> ([Lanes; 6], [Lanes; 4], [bool; LANES]) {
+    let x: [V3<BdLanes>; 4] = std::array::from_fn(|k| std::array::from_fn(|a| BdLanes::from_fn(|i| corners[i][k][a])));
+    let det = BdLanes::from_fn(|i| det[i]);
+    let (v, len2, _) = centres(x, det, [BdLanes::from(0.0); 4]);
     let (w, m) = pieces(&v, len2);
-    let s = scale;
-    (
-        w.map(|v| {
-            let v = v.to_f64();
-            std::array::from_fn(|i| v[i] * s[i])
-        }),
-        m.map(|v| {
-            let v = v.to_f64();
-            std::array::from_fn(|i| v[i] * s[i] * s[i] * s[i])
-        }),
-    )
+    let (mut weights, mut cells, mut ok) = ([[0.0; LANES]; 6], [[0.0; LANES]; 4], [false; LANES]);
+    for i in 0..LANES {
+        if let Some(d) = certify_dual(w.map(|v| v.get(i)), m.map(|v| v.get(i)), scale[i]) {
+            (0..6).for_each(|e| weights[e][i] = d.weights[e]);
+            (0..4).for_each(|c| cells[c][i] = d.cell_volumes[c]);
+            ok[i] = true;
+        }
+    }
+    (weights, cells, ok)
+}
+
+/// A dual in the frame's units (scale `s`) in the caller's, if the bounds certify its
+/// weights against the largest weight and its cell volumes against the largest cell.
+fn certify_dual(w: [Bd; 6], m: [Bd; 4], s: f64) -> Option<Dual> {
+    let (wmax, mmax) = (largest(&w), largest(&m));
+    Some(scaled(s, certified(w, |_| wmax)?, certified(m, |_| mmax)?))
 }
 
 /// The dual of one tet with vertex weights `weights` (the user's, at its four corners, in
@@ -290,13 +377,45 @@ pub fn power_dual(t: &LocalTet, weights: Option<&[f64; 4]>, placement: Placement
     scaled(t.scale, w, m)
 }
 
-/// [`power_dual`] in double-double from the tet's input corners `x` (in R^d, `t` their
-/// frame): exact edges, determinant and weight differences, about 32 digits throughout,
-/// rounded to `f64` at the end. The precise path of the accuracy rule.
+/// [`power_dual`] by the precise path of the accuracy rule, from the tet's input corners
+/// `x` (in R^d, `t` their frame): in double-double from the exact edges, determinant and
+/// weight differences, with a bound on every value's error ([`Bd`]); when the bounds do
+/// not certify the documented accuracy, in exact rational arithmetic from the input
+/// coordinates (tets in R^3), rounded at the end. Values beyond the `f64` range are
+/// infinite (or lose their digits below it); NaN for an immersed tet (d > 3) that
+/// double-double cannot serve.
 pub fn power_dual_precise(x: [&[f64]; 4], t: &LocalTet, weights: Option<&[f64; 4]>, placement: Placement) -> Dual {
+    power_dual_certified(x, t, weights, placement)
+        .or_else(|| power_dual_exact(x, weights, placement))
+        .unwrap_or(Dual { weights: [f64::NAN; 6], cell_volumes: [f64::NAN; 4] })
+}
+
+/// [`power_dual_precise`]'s double-double step: the values if their bounds certify them.
+fn power_dual_certified(x: [&[f64]; 4], t: &LocalTet, weights: Option<&[f64; 4]>, placement: Placement) -> Option<Dual> {
     let (corners, det) = precise_tet(x, t.scale);
     let (w, m) = dual_of(corners, det, relative_precise(t.scale, weights), placement);
-    scaled(t.scale, w.map(|v| v.to_f64()), m.map(|v| v.to_f64()))
+    certify_dual(w, m, t.scale)
+}
+
+/// [`power_dual_precise`]'s last step, in exact arithmetic from the input coordinates (the
+/// caller's units: no frame); `None` for an immersed tet.
+fn power_dual_exact(x: [&[f64]; 4], weights: Option<&[f64; 4]>, placement: Placement) -> Option<Dual> {
+    exactly(|| {
+        let (corners, det) = exact_tet(x)?;
+        let w = weights.map_or([Exact::from(0.0); 4], |w| w.map(|wi| Exact::from(wi) - Exact::from(w[0])));
+        let (w, m) = dual_of(corners, det, w, placement);
+        Some(Dual { weights: w.map(Exact::to_f64), cell_volumes: m.map(Exact::to_f64) })
+    })
+}
+
+/// The corners of a tet in R^3 relative to the first, exactly, and their determinant (six
+/// times the signed volume), inside [`exactly`]; `None` for an immersed tet.
+pub(crate) fn exact_tet(x: [&[f64]; 4]) -> Option<([V3<Exact>; 4], Exact)> {
+    if x[0].len() != 3 {
+        return None;
+    }
+    let p: [V3<Exact>; 4] = std::array::from_fn(|k| std::array::from_fn(|c| Exact::from(x[k][c]) - Exact::from(x[0][c])));
+    Some((p, dot(p[1], cross(p[2], p[3]))))
 }
 
 /// The corner weights relative to corner 0, in the frame's units (squared lengths).
@@ -305,13 +424,13 @@ pub(super) fn relative(scale: f64, weights: Option<&[f64; 4]>) -> [f64; 4] {
     weights.map_or([0.0; 4], |w| w.map(|wi| (wi - w[0]) / s2))
 }
 
-/// [`relative`] in double-double: the differences exact, then scaled.
-pub(super) fn relative_precise(scale: f64, weights: Option<&[f64; 4]>) -> [Dd; 4] {
-    let inv2 = 1.0 / (scale * scale);
-    weights.map_or([Dd::default(); 4], |w| {
+/// [`relative`] in double-double with error bounds: the differences exact, then scaled.
+pub(super) fn relative_precise(scale: f64, weights: Option<&[f64; 4]>) -> [Bd; 4] {
+    let inv = 1.0 / scale;
+    weights.map_or([Bd::default(); 4], |w| {
         w.map(|wi| {
             let (hi, lo) = two_sum(wi, -w[0]);
-            Dd { hi: hi * inv2, lo: lo * inv2 }
+            Bd::scaled(hi, lo, inv * inv)
         })
     })
 }

@@ -2,6 +2,7 @@
 //! circumsphere test of the local Delaunay property.
 
 use super::{EDGES, OPPOSITE};
+use super::power::Field;
 use crate::element::frame::LocalTet;
 use glam::DVec3;
 
@@ -50,6 +51,66 @@ pub fn tet_quality(t: &LocalTet, signed: bool) -> TetQuality {
         (0..4).filter(|&c| c != a && c != b).all(|c| (x[b] - x[a]).dot(x[c] - x[a]) > 0.0 && (x[a] - x[b]).dot(x[c] - x[b]) > 0.0)
     });
     TetQuality { volume, dihedral, well_centered: inside && acute }
+}
+
+/// Whether [`tet_quality`] from the frame serves a tet in R^3: its determinant is a normal
+/// `f64` and no face is so thin (`|n|^2` below `2^-60` times the product of two of its
+/// squared edges: an angle below `2^-30`) that its rounded normal, and the dihedral angles
+/// from it, lose their digits. The others take [`tet_quality_exact`].
+pub fn quality_from_frame(t: &LocalTet) -> bool {
+    let [e1, e2, e3] = t.edges;
+    let x = [DVec3::ZERO, e1, e2, e3];
+    let thin = super::FACES.iter().any(|&[p, q, r]| {
+        let (u, v) = (x[q] - x[p], x[r] - x[p]);
+        u.cross(v).length_squared() < THIN_FACE * u.length_squared() * v.length_squared()
+    });
+    t.det.abs() >= f64::MIN_POSITIVE && !thin
+}
+
+/// `2^-60`: see [`quality_from_frame`].
+const THIN_FACE: f64 = 1.0 / (1u64 << 60) as f64;
+
+/// [`tet_quality`] of the tet with corners `x` in R^3 from exact arithmetic: the volume
+/// rounded once, the dihedral angles from the exact face normals (each rounded after
+/// dividing out its largest component), the well-centredness from exact signs.
+pub fn tet_quality_exact(x: [&[f64]; 4], signed: bool) -> TetQuality {
+    use super::power::{cross, dot, exact_tet, sub};
+    use crate::element::rational::{exactly, Exact};
+    exactly(|| {
+        let (p, det) = exact_tet(x).expect("a tet in R^3");
+        let volume = (det / Exact::from(6.0)).to_f64();
+        let volume = if signed { volume } else { volume.abs() };
+        let n = [cross(sub(p[3], p[1]), sub(p[2], p[1])), cross(p[2], p[3]), cross(p[3], p[1]), cross(p[1], p[2])];
+        // each normal's direction in f64: divided by its largest component first
+        let direction = |v: [Exact; 3]| {
+            let size = v.iter().copied().max_by(|a, b| {
+                let (a, b) = (a.oriented(*a), b.oriented(*b));
+                (a - b).signum().cmp(&0)
+            });
+            let size = size.map(|s| s.oriented(s)).expect("three components");
+            DVec3::from(v.map(|c| (c / size).to_f64()))
+        };
+        let flat = det.signum() == 0;
+        let unit = n.map(|v| if flat { DVec3::ZERO } else { direction(v) });
+        let dihedral = std::array::from_fn(|e| {
+            let (k, l) = OPPOSITE[e];
+            let (a, b) = (unit[k], unit[l]);
+            if flat { f64::NAN } else { a.cross(b).length().atan2(-a.dot(b)).to_degrees() }
+        });
+        let well_centered = !flat && {
+            let r = [1, 2, 3].map(|k| dot(p[k], p[k]));
+            let c: [Exact; 3] = std::array::from_fn(|i| (r[0] * n[1][i] + r[1] * n[2][i] + r[2] * n[3][i]) / (Exact::from(2.0) * det));
+            let lambda = [dot(n[0], sub(c, p[1])), dot(n[1], c), dot(n[2], c), dot(n[3], c)];
+            let inside = lambda.iter().all(|&l| l.signum() * det.signum() > 0);
+            let acute = EDGES.iter().all(|&(a, b)| {
+                (0..4).filter(|&c| c != a && c != b).all(|c| {
+                    dot(sub(p[b], p[a]), sub(p[c], p[a])).signum() > 0 && dot(sub(p[a], p[b]), sub(p[c], p[b])).signum() > 0
+                })
+            });
+            inside && acute
+        };
+        TetQuality { volume, dihedral, well_centered }
+    })
 }
 
 /// `det` of the 4 x 4 matrix with rows `r`.

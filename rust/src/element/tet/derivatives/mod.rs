@@ -180,6 +180,7 @@ macro_rules! each_edge {
 }
 
 mod dual;
+pub(crate) mod precise;
 mod primal;
 
 #[cfg(test)]
