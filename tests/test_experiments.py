@@ -254,10 +254,10 @@ def test_every_install_hint_is_the_readme_s(monkeypatch):
     import re
     import tomllib
 
-    root = pathlib.Path(tetlap.__file__).parent
-    extras = tomllib.loads((root.parent.parent / "pyproject.toml").read_text())[
-        "project"]["optional-dependencies"]
-    readme = (root.parent.parent / "README.md").read_text()
+    root = pathlib.Path(tetlap.__file__).parent  # the installed package's sources
+    repo = pathlib.Path(__file__).resolve().parent.parent  # the checkout; CI installs a wheel
+    extras = tomllib.loads((repo / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    readme = (repo / "README.md").read_text()
     assert 'pip install ".[io]"' in readme and "tetlap[" not in readme
     for path in root.rglob("*.py"):
         text = path.read_text()
