@@ -56,13 +56,13 @@ import time
 
 import numpy as np
 
-from .. import _arrays, _options, assembly, diagnostics
+from .. import _arrays, _options, analysis, assembly, diagnostics
 from .._float_range import LARGEST, SMALLEST, unit_scale
 from ..errors import DegenerateElementError, NonFiniteError, OptionError
 from ..analysis import negative_weights
 from . import masses, search, verify
 from .conditions import Conditions, _validated, face_margins
-from .result import STATUSES, RegularWeights
+from .result import ANSWERS, STATUSES, RegularWeights
 from .search import TARGET_MARGIN, Budget, Certificate, Problem
 
 __all__ = [
@@ -138,10 +138,33 @@ class Decision:
     notes: list[str] = dataclasses.field(default_factory=list)
 
 
-def _dual_counts(V, T, w, on_boundary, threads):
-    """(negative interior weights, circumcentric masses) of the (weighted) dual."""
+def _answer(value: bool | None) -> str:
+    """``"yes"``, ``"no"`` or ``"not checked"`` (None) of :data:`ANSWERS`."""
+    return ANSWERS[2] if value is None else ANSWERS[0] if value else ANSWERS[1]
+
+
+@dataclasses.dataclass(frozen=True)
+class DualReport:
+    """What the report needs of a (weighted) dual: its negative interior weights, its
+    circumcentric masses (n,), and (for the weights returned) whether it is negative
+    semidefinite (None: undecided) and how that was decided."""
+
+    n_negative_interior: int
+    masses: np.ndarray
+    semidefinite: bool | None = None
+    semidefinite_method: str = ""
+
+
+def _dual_report(V, T, w, on_boundary, threads, semidefinite: bool) -> DualReport:
+    """One assembly of the (weighted, ``w``; None: plain) dual and its mass, checked by
+    :func:`tetlap.check`'s one rule (its certificates of semidefiniteness when
+    ``semidefinite``)."""
     L, M = assembly.operators(V, T, "dual", "circumcentric", weights=w, threads=threads)
-    return negative_weights(L, V, T, on_boundary)[1], M.diagonal()
+    if not semidefinite:
+        return DualReport(negative_weights(L, V, T, on_boundary)[1], M.diagonal())
+    report = analysis._check(L, V, T, None, kind="dual", negative_tol=analysis.NEGATIVE_TOL,
+                             nsd=True, boundary=on_boundary, assembled=True, weights=w)
+    return DualReport(report.n_negative_interior, M.diagonal(), report.nsd, report.nsd_method)
 
 
 def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str = "free",
@@ -389,9 +412,12 @@ def _report(V, T, cond: Conditions, settings: Settings, d: Decision, start: floa
             ) -> RegularWeights:
     """The counts and the result."""
     w, threads = d.w, settings.threads
-    n_neg_plain, m_plain = _dual_counts(V, T, None, cond.on_boundary, threads)
-    n_neg_w, m_weighted = ((n_neg_plain, m_plain) if not w.any()
-                           else _dual_counts(V, T, w, cond.on_boundary, threads))
+    plain = _dual_report(V, T, None, cond.on_boundary, threads, not w.any())
+    weighted = (plain if not w.any()
+                else _dual_report(V, T, w, cond.on_boundary, threads, True))
+    n_neg_plain, m_plain = plain.n_negative_interior, plain.masses
+    n_neg_w, m_weighted = weighted.n_negative_interior, weighted.masses
+    masses_lost = np.flatnonzero((m_plain > 0) & (m_weighted <= 0)).astype(np.int64)
     g = cond.per_face(cond.margins(w))
     g_plain = cond.per_face(cond.g0)
     positive = m_plain > 0
@@ -431,7 +457,7 @@ def _report(V, T, cond: Conditions, settings: Settings, d: Decision, start: floa
         n_negative_interior_weighted=n_neg_w,
         mass_min_plain=float(m_plain.min()),
         mass_min_weighted=float(m_weighted.min()),
-        masses_lost=np.flatnonzero(positive & (m_weighted <= 0)).astype(np.int64),
+        masses_lost=masses_lost,
         masses_below_floor=np.flatnonzero(
             positive & (m_weighted < mass_floor * m_plain)).astype(np.int64),
         seconds=time.perf_counter() - start,
@@ -444,5 +470,10 @@ def _report(V, T, cond: Conditions, settings: Settings, d: Decision, start: floa
         iterations=iterations,
         lp_count=d.outcome.lps if d.outcome else 0,
         mass_rounds=d.mass_step.rounds if d.mass_step else 0,
+        nonnegative_interior=_answer(n_neg_w == 0),
+        positive_masses=_answer(not len(masses_lost)),
+        semidefinite=_answer(weighted.semidefinite),
+        semidefinite_method=weighted.semidefinite_method,
+        n_masses_nonpositive_plain=int((m_plain <= 0).sum()),
     )
 
