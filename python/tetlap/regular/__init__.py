@@ -136,6 +136,9 @@ class Decision:
     outcome: search.Outcome | None = None
     mass_step: masses.MassStep | None = None
     notes: list[str] = dataclasses.field(default_factory=list)
+    #: The plain dual and its circumcentric mass, once assembled (the mass step and the
+    #: report share them).
+    plain_dual: tuple | None = None
 
 
 def _answer(value: bool | None) -> str:
@@ -155,11 +158,20 @@ class DualReport:
     semidefinite_method: str = ""
 
 
-def _dual_report(V, T, w, on_boundary, threads, semidefinite: bool) -> DualReport:
-    """One assembly of the (weighted, ``w``; None: plain) dual and its mass, checked by
-    :func:`tetlap.check`'s one rule (its certificates of semidefiniteness when
-    ``semidefinite``)."""
-    L, M = assembly.operators(V, T, "dual", "circumcentric", weights=w, threads=threads)
+def _plain_dual(V, T, d: Decision, threads) -> tuple:
+    """``(L, M)`` of the plain dual, assembled once into ``d.plain_dual``."""
+    if d.plain_dual is None:
+        d.plain_dual = assembly.operators(V, T, "dual", "circumcentric", threads=threads)
+    return d.plain_dual
+
+
+def _dual_report(V, T, w, on_boundary, threads, semidefinite: bool,
+                 operators: tuple | None = None) -> DualReport:
+    """The (weighted, ``w``; None: plain) dual and its mass (``operators``, or assembled
+    here), checked by :func:`tetlap.check`'s one rule (its certificates of
+    semidefiniteness when ``semidefinite``)."""
+    L, M = operators or assembly.operators(V, T, "dual", "circumcentric", weights=w,
+                                           threads=threads)
     if not semidefinite:
         return DualReport(negative_weights(L, V, T, on_boundary)[1], M.diagonal())
     report = analysis._check(L, V, T, None, kind="dual", negative_tol=analysis.NEGATIVE_TOL,
@@ -343,7 +355,8 @@ def _in_user_units(r: RegularWeights, used: np.ndarray, n: int, scale: float
 def _decide(V, T, cond: Conditions, settings: Settings, budget: Budget) -> Decision:
     """Steps 1-5 of :func:`regular_weights`."""
     zero = np.zeros(len(V))
-    plain = verify.check_margins(V, T, cond.interior, zero, exact=False)
+    plain = verify.check_margins(V, T, cond.interior, zero, exact=False,
+                                 threads=settings.threads)
     d = Decision(w=zero, status="undecided", plain=plain, final=plain)
     if len(cond.nonmanifold):
         triangles = cond.nonmanifold
@@ -389,7 +402,7 @@ def _find(V, T, cond: Conditions, settings: Settings, budget: Budget, d: Decisio
                               budget, d.notes, settings.threads)
     u = d.outcome.u
     if d.outcome.status == "reached" and settings.mass_floor is not None:
-        plain_masses = masses.circumcentric_masses(V, T, None, settings.threads)
+        plain_masses = _plain_dual(V, T, d, settings.threads)[1].diagonal()
         u, d.mass_step = masses.keep_masses(V, T, problem, d.outcome, lo, hi, plain_masses,
                                             settings.mass_floor, budget, settings.threads)
         if d.mass_step.lost or d.mass_step.deficit:
@@ -401,7 +414,8 @@ def _find(V, T, cond: Conditions, settings: Settings, budget: Budget, d: Decisio
         return
     d.w = u * scale
     # w = 0 (a search stopped before its first step): the check of w = 0 is done already
-    d.final = d.plain if not d.w.any() else verify.check_margins(V, T, cond.interior, d.w)
+    d.final = (d.plain if not d.w.any()
+               else verify.check_margins(V, T, cond.interior, d.w, threads=settings.threads))
     if d.outcome.status != "reached" and len(d.final.failed) > len(d.plain.failed):
         d.notes.append("the search's weights leave more faces not strictly regular than "
                        "w = 0: w = 0")
@@ -412,7 +426,8 @@ def _report(V, T, cond: Conditions, settings: Settings, d: Decision, start: floa
             ) -> RegularWeights:
     """The counts and the result."""
     w, threads = d.w, settings.threads
-    plain = _dual_report(V, T, None, cond.on_boundary, threads, not w.any())
+    plain = _dual_report(V, T, None, cond.on_boundary, threads, not w.any(),
+                         _plain_dual(V, T, d, threads))
     weighted = (plain if not w.any()
                 else _dual_report(V, T, w, cond.on_boundary, threads, True))
     n_neg_plain, m_plain = plain.n_negative_interior, plain.masses

@@ -83,7 +83,8 @@ class RegularWeights:
     positive_masses : str, one of :data:`ANSWERS`: whether every weighted circumcentric
         mass (control volume) is positive where the plain dual's is (``masses_lost``
         empty); ``n_masses_nonpositive_plain`` says how many are not positive in the
-        plain dual already.
+        plain dual already. A "no" is about these weights only: there is no proof that no
+        regular weights keep them (the mass step is a search, :mod:`~tetlap.regular.masses`).
     semidefinite : str, one of :data:`ANSWERS`: whether the weighted dual is negative
         semidefinite, decided by :func:`tetlap.check`'s certificates (``semidefinite_method``
         names the one that decided, or why none did: then ``"not checked"``).
@@ -163,7 +164,9 @@ class RegularWeights:
         verdict = {"regular": "yes", "not regular": "NO (proved)",
                    "undecided": "undecided"}[self.status]
         shout = {"yes": "yes", "no": "NO", "not checked": "not checked"}
-        lost = f" ({len(self.masses_lost)} lost)" if len(self.masses_lost) else ""
+        # no certificate that no weights keep them exists yet: say so
+        lost = (f" ({len(self.masses_lost)} lost; no proof either way that other weights "
+                "keep them)" if len(self.masses_lost) else "")
         lines = [
             f"regular: {verdict}; interior weights >= 0: {shout[self.nonnegative_interior]}; "
             f"control volumes > 0 where the plain dual's are: "
