@@ -92,3 +92,11 @@ def test_an_undecided_semidefiniteness_reads_not_checked(monkeypatch):
     r = regular_weights(V, T)
     assert r.semidefinite == "not checked" and r.semidefinite_method == "undetermined: test"
     assert "semidefinite: not checked" in str(r).splitlines()[0]
+
+
+def test_past_the_time_limit_semidefiniteness_is_not_checked():
+    V, T = tetlap.meshes.weighted_ball(300, 1.0, seed=0)
+    r = regular_weights(V, T, time_limit=1e-9)
+    assert r.status == "undecided" and r.semidefinite == "not checked"
+    assert "time limit" in r.semidefinite_method
+    assert r.positive_masses in ("yes", "no") and r.nonnegative_interior in ("yes", "no")

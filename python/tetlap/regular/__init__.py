@@ -212,7 +212,8 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
         depends on the machine's speed and load. The set-up (the face conditions and the
         check of ``w = 0``, about ten assemblies' time) runs before the search can stop,
         and the check of the weights and the final report (two assemblies of the dual and
-        their checks) after it: ``time_limit=0.05`` takes about as long as
+        their checks; past the limit, the weighted dual's semidefiniteness is "not
+        checked") after it: ``time_limit=0.05`` takes about as long as
         ``max_iterations=1`` (see Cost).
     threads : int or None, the core's worker threads (None: all cores). The result does
         not depend on it.
@@ -309,8 +310,8 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
                     deadline=None if time_limit is None else start + float(time_limit))
     with _no_degenerate_advice():
         cond = Conditions.of(X, T_used, threads)
-        result = _report(X, T_used, cond, settings, _decide(X, T_used, cond, settings, budget),
-                         start)
+        decision = _decide(X, T_used, cond, settings, budget)
+        result = _report(X, T_used, cond, settings, decision, start, late=budget.late())
     return _in_user_units(result, used, len(V), scale)
 
 
@@ -422,14 +423,19 @@ def _find(V, T, cond: Conditions, settings: Settings, budget: Budget, d: Decisio
         d.w, d.final = np.zeros(len(V)), d.plain
 
 
-def _report(V, T, cond: Conditions, settings: Settings, d: Decision, start: float
-            ) -> RegularWeights:
-    """The counts and the result."""
+def _report(V, T, cond: Conditions, settings: Settings, d: Decision, start: float,
+            late: bool = False) -> RegularWeights:
+    """The counts and the result; ``late``: past the caller's time limit, so the
+    semidefiniteness of the weighted dual is not checked."""
     w, threads = d.w, settings.threads
-    plain = _dual_report(V, T, None, cond.on_boundary, threads, not w.any(),
+    check = not late
+    plain = _dual_report(V, T, None, cond.on_boundary, threads, check and not w.any(),
                          _plain_dual(V, T, d, threads))
     weighted = (plain if not w.any()
-                else _dual_report(V, T, w, cond.on_boundary, threads, True))
+                else _dual_report(V, T, w, cond.on_boundary, threads, check))
+    if late:
+        weighted = dataclasses.replace(weighted, semidefinite_method="not checked: past the "
+                                       "time limit")
     n_neg_plain, m_plain = plain.n_negative_interior, plain.masses
     n_neg_w, m_weighted = weighted.n_negative_interior, weighted.masses
     masses_lost = np.flatnonzero((m_plain > 0) & (m_weighted <= 0)).astype(np.int64)
