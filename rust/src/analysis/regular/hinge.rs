@@ -135,9 +135,9 @@ impl Hinge {
 /// Most rows are far above their aims (90% of the faces of a random mesh) and contribute
 /// nothing, so each evaluation visits a *working set* only (the values are those of all
 /// rows, up to the order of the sums): at a *reference* point (the first evaluation, and whenever the next one is out of
-/// reach) every row is evaluated, and the working set is the rows within [`REACH`]
-/// (times `|a_r|_1`) of their aim. Every other row `r` has the slack `s_r = (g_r - aim_r) /
-/// |a_r|_1 > REACH` there, and stays above its aim while each of its variables `j` moves
+/// reach) every row is evaluated, and the working set is the rows within a reach (from
+/// [`REACH`], see [`RENEW`]; times `|a_r|_1`) of their aim. Every other row `r` has the
+/// slack `s_r = (g_r - aim_r) / |a_r|_1 >` reach there, and stays above its aim while each of its variables `j` moves
 /// less than `s_r` from the reference (`sum_k |a_rk| |du_k| < |a_r|_1 s_r`): each variable
 /// gets the *cap* `min s_r` over the rows outside the working set that hold it, and while
 /// every variable is within its cap, `F`, its gradient and the rows below their floors are
@@ -165,10 +165,18 @@ pub struct Shortfall<'h> {
     t_coef: Vec<f64>,
     /// Scratch: `wgt * shortfall` of every working row (0 at or above the aim).
     weighted: Vec<f64>,
+    /// The reach of the working set (from [`REACH`], doubled up to 1 while the reference
+    /// has to be renewed within [`RENEW`] evaluations), and the evaluations since it was.
+    reach: f64,
+    evaluations: usize,
 }
 
-/// The working set of [`Shortfall`]: rows within `REACH * |a_r|_1` of their aim.
+/// The working set of [`Shortfall`] starts as the rows within `REACH * |a_r|_1` of their aim.
 pub const REACH: f64 = 0.005;
+/// A reference renewed within this many evaluations doubles the reach: where many rows
+/// are short and the variables move far (a mesh with many faces to repair), a wider
+/// working set costs less than renewing it at every step.
+pub const RENEW: usize = 10;
 
 impl<'h> Shortfall<'h> {
     pub fn new(hinge: &'h Hinge) -> Self {
@@ -185,15 +193,22 @@ impl<'h> Shortfall<'h> {
             t_rows: vec![],
             t_coef: vec![],
             weighted: vec![],
+            reach: REACH,
+            evaluations: 0,
         }
     }
 
     /// Every row at `u`: the new reference, working set and caps.
     fn refer(&mut self, u: &[f64]) {
+        if !self.reference.is_empty() && self.evaluations < RENEW {
+            self.reach = (2.0 * self.reach).min(1.0);
+        }
+        self.evaluations = 0;
+        let reach = self.reach;
         let h = self.hinge;
         let g = h.values(u);
         let slack: Vec<f64> = (0..h.len()).map(|r| (g[r] - h.aim[r]) / self.norm1[r]).collect();
-        let in_working = |r: usize| slack[r].is_nan() || slack[r] <= REACH;
+        let in_working = |r: usize| slack[r].is_nan() || slack[r] <= reach;
         let n = u.len();
         // per variable: its cap
         self.cap = map(n, |j| {
@@ -251,6 +266,7 @@ impl Objective for Shortfall<'_> {
         if self.out_of_reach(u) {
             self.refer(u);
         }
+        self.evaluations += 1;
         let h = &self.working;
         // every working row's weighted shortfall in its slot, by chunks: (F, rows below floor)
         let chunk = |(c, out): (usize, &mut [f64])| -> (f64, usize) {
