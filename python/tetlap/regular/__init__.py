@@ -264,12 +264,14 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
     :class:`tetlap.NonFiniteError`.
 
     Cost: besides the budgeted iterations, every call computes the face conditions and
-    checks ``w = 0``; a mesh with cospherical faces solves one LP with 7 unknowns (the
-    quadratic lifting); and the report assembles the dual twice and checks the weights.
-    All of it is linear in the mesh: with ``max_iterations=1``, 1-2 s on 94k tets and 5-8 s
-    on 384k (jittered Kuhn grids, ``meshes.cube(25 | 40, jitter=0.2)``, on a loaded
-    2-core machine; at 384k about 2 s check ``w = 0``, 1.5 s the lifting's LP, 0.6 s the
-    conditions, 0.7 s the search's set-up, 0.5 s the report).
+    checks ``w = 0`` (in the core, one pass each); a mesh with cospherical faces solves one
+    LP with 7 unknowns (the quadratic lifting); and the report assembles the dual twice,
+    checks both and decides the weighted dual's semidefiniteness by :func:`tetlap.check`'s
+    certificates. All of it is linear in the mesh: with ``max_iterations=1``, 0.9 s on 94k
+    tets and 2.7 s on 384k (jittered Kuhn grids, ``meshes.cube(25 | 40, jitter=0.2)``, on a
+    loaded 2-core machine: 25-30 assemblies of the dual). A search iteration costs the
+    faces near their aims and their vertices, not the mesh (about 5 ms on the 215k-tet
+    ``meshes.weighted_ball(34000, 0.01)``, which needs 288: 25-46 assemblies in all).
 
     Raises
     ------
