@@ -1,38 +1,41 @@
-"""Time tetlap.regular.regular_weights on the corpus and on ~200k-tet meshes, next to the
-operator assembly, and optionally next to another version of it in the same run.
+"""Time tetlap.regular.regular_weights on the corpus and on ~200k-tet meshes, as a ratio to
+the operator assembly timed in the same process, and optionally next to another checkout
+of tetlap in the same run.
 
-    python benches/regular_weights.py [--meshes DIR] [--big] [--compare OLD.py] [--json]
+    python benches/regular_weights.py [--meshes DIR] [--big] [--only NAME] [--before PATH] [--json]
 
 Cases: every corpus mesh of ``--meshes`` (default ``../shared/data/meshes``), and with
-``--big`` generated regular triangulations of about 215k tets (weighted balls, ~1% and
-~10% non-Delaunay tets) and random Delaunay balls of the same size with their interior
-vertices jittered by 0.1 and 0.3 mean spacings. Each line: tets, non-Delaunay faces, the
-assembly time of ``tetlap.operators(V, T, "dual", "circumcentric")`` in the same run,
-``regular_weights`` time (wall and CPU), status, iterations, LPs, masses lost. With
-``--compare OLD.py`` (a copy of an earlier ``tetlap/regular.py``, loaded as
-``tetlap.regular_old``), that version runs on every case too, with ``--time-limit`` (its
-budget was wall-clock; default 60 s). Run it alone: the machine has two cores.
+``--big`` generated meshes of about 215k tets (weighted balls, ~1% and ~10% non-Delaunay
+tets, and random Delaunay balls with their interior vertices jittered by 0.1 and 0.3 mean
+spacings); ``--only`` keeps the cases whose name contains it. Each line: tets,
+non-Delaunay faces, the assembly time of ``tetlap.operators(V, T, "dual",
+"circumcentric")`` (the best of three, in the same process), ``regular_weights`` time
+(wall and CPU), their ratio, status, the three guarantees, iterations, LPs, masses lost.
+With ``--before PATH`` (the ``python`` folder of another checkout, its extension built),
+each case is also run by that version, in a child process right after this one (its own
+assembly timed there): the ratios compare across versions on a shared machine. Run it
+alone: the machine has two cores.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
+import os
 import pathlib
+import subprocess
 import sys
 import time
 import warnings
-
-import tetlap
-import tetlap.io
-from tetlap.experiments.regular_weights import jittered_ball
-from tetlap.regular import regular_weights
 
 SUFFIXES = {".mesh", ".msh", ".vtu", ".vtk", ".ele"}
 
 
 def cases(folder, big):
+    import tetlap
+    import tetlap.io
+    from tetlap.experiments.regular_weights import jittered_ball
+
     if folder:
         for path in sorted(p for p in pathlib.Path(folder).iterdir() if p.suffix in SUFFIXES):
             yield path.name, lambda path=path: tetlap.io.read(path)
@@ -45,19 +48,37 @@ def cases(folder, big):
                    lambda amount=amount: jittered_ball(34000, amount, seed=0))
 
 
-def load(path):
-    """An earlier regular.py as the module ``tetlap.regular_old``."""
-    spec = importlib.util.spec_from_file_location("tetlap.regular_old", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["tetlap.regular_old"] = module
-    spec.loader.exec_module(module)
-    return module
-
-
 def timed(function, *args, **kwargs):
     wall, cpu = time.perf_counter(), time.process_time()
     result = function(*args, **kwargs)
     return result, time.perf_counter() - wall, time.process_time() - cpu
+
+
+def measure(name, read) -> dict:
+    """One case: the assembly (best of three) and regular_weights, in this process."""
+    import tetlap
+    from tetlap.regular import regular_weights
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        V, T = read()
+    assembly = min(timed(tetlap.operators, V, T, "dual", "circumcentric")[1] for _ in range(3))
+    r, wall, cpu = timed(regular_weights, V, T)
+    return {"mesh": name, "n_tets": len(T), "non_delaunay_faces": r.n_violated_plain,
+            "assembly_s": round(assembly, 4), "seconds": round(wall, 3),
+            "cpu_seconds": round(cpu, 2), "ratio": round(wall / assembly, 1),
+            "status": r.status, "guarantees": getattr(r, "guarantees", None),
+            "certificate": r.certificate_kind, "iterations": r.iterations,
+            "lp_count": r.lp_count, "masses_lost": int(len(r.masses_lost))}
+
+
+def before(path, args, name) -> dict:
+    """The case ``name`` measured by the checkout whose ``python`` folder is ``path``."""
+    command = [sys.executable, __file__, "--meshes", args.meshes or "", "--only", name,
+               "--exact", "--json"] + (["--big"] if args.big else [])
+    env = dict(os.environ, PYTHONPATH=str(path))
+    out = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def main() -> None:
@@ -65,38 +86,35 @@ def main() -> None:
     parser.add_argument("--meshes", default=str(pathlib.Path(__file__).resolve().parents[2]
                                                 / "shared" / "data" / "meshes"))
     parser.add_argument("--big", action="store_true", help="add the generated 215k-tet meshes")
-    parser.add_argument("--compare", metavar="OLD.py", help="an earlier regular.py to time too")
-    parser.add_argument("--time-limit", type=float, default=60.0,
-                        help="the earlier version's wall-clock budget (s)")
+    parser.add_argument("--only", help="only the cases whose name contains this")
+    parser.add_argument("--exact", action="store_true", help="--only matches the whole name")
+    parser.add_argument("--before", metavar="PATH",
+                        help="the python folder of another checkout, to time too")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
-    old = load(args.compare) if args.compare else None
     for name, read in cases(args.meshes, args.big):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            V, T = read()
-        _, assembly, _ = timed(tetlap.operators, V, T, "dual", "circumcentric")
-        r, wall, cpu = timed(regular_weights, V, T)
-        record = {"mesh": name, "n_tets": len(T), "non_delaunay_faces": r.n_violated_plain,
-                  "assembly_s": round(assembly, 3), "seconds": round(wall, 2),
-                  "cpu_seconds": round(cpu, 2), "status": r.status,
-                  "certificate": r.certificate_kind, "iterations": r.iterations,
-                  "lp_count": r.lp_count, "masses_lost": int(len(r.masses_lost)),
-                  "verification": r.verification}
-        if old is not None:
-            o, wall_old, cpu_old = timed(old.regular_weights, V, T, time_limit=args.time_limit)
-            record.update(old_seconds=round(wall_old, 2), old_cpu_seconds=round(cpu_old, 2),
-                          old_status=o.status, old_masses_lost=int(len(o.masses_lost)))
+        if args.only and not (name == args.only if args.exact else args.only in name):
+            continue
+        record = measure(name, read)
+        if args.before:
+            old = before(args.before, args, name)
+            record["before"] = {k: old[k] for k in ("assembly_s", "seconds", "ratio", "status",
+                                                     "iterations", "masses_lost")}
         if args.json:
             print(json.dumps(record), flush=True)
-        else:
-            line = (f"{name:<36} {len(T):>7} tets {r.n_violated_plain:>6} non-Del.  assembly "
-                    f"{assembly:6.3f} s  regular_weights {wall:6.2f} s ({cpu:6.2f} CPU)  "
-                    f"{r.status}, {r.iterations} iterations, {r.lp_count} LPs, "
-                    f"{len(r.masses_lost)} masses lost")
-            if old is not None:
-                line += f"  | before: {wall_old:6.2f} s, {o.status}, {len(o.masses_lost)} lost"
-            print(line, flush=True)
+            continue
+        g = record["guarantees"] or {}
+        line = (f"{name:<36} {record['n_tets']:>7} tets {record['non_delaunay_faces']:>6} "
+                f"non-Del.  assembly {record['assembly_s']:6.3f} s  regular_weights "
+                f"{record['seconds']:6.2f} s ({record['cpu_seconds']:6.2f} CPU) = "
+                f"{record['ratio']:6.1f}x  {record['status']}, {record['iterations']} "
+                f"iterations, {record['lp_count']} LPs, {record['masses_lost']} masses lost, "
+                f"guarantees {'/'.join(g.values())}")
+        if args.before:
+            b = record["before"]
+            line += (f"  | before: {b['seconds']:6.2f} s = {b['ratio']:6.1f}x, {b['status']}, "
+                     f"{b['masses_lost']} lost")
+        print(line, flush=True)
 
 
 if __name__ == "__main__":

@@ -126,6 +126,11 @@ _Budget = tuple[int, float | None]
 
 def regular_conditions(points: _F64, cells: _Cells, *, options: _Options = None
                        ) -> dict[str, npt.NDArray[np.int64] | _F64 | npt.NDArray[np.bool_]]: ...
+# interior: the (f, 4) face table of regular_conditions; weights (n,) or None (zeros); ->
+# (2 f,) int8, the sign of every face view's lifted determinant (views from the first tets,
+# then from the second): 1 strictly locally regular, -1 not, 0 float64 cannot tell
+def regular_signs(points: _F64, cells: _Cells, interior: _I64, weights: _F64 | None = None,
+                  *, options: _Options = None) -> npt.NDArray[np.int8]: ...
 # -> (u (n,), stop, iterations, short rows (k,) int64 largest shortfall first, their
 # multipliers (k,))
 def regular_search(rows: _Rows, targets: _Targets, u: _F64, budget: _Budget, *,

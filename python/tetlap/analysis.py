@@ -247,10 +247,12 @@ def negative_weights(L, V, T, on_boundary=None) -> tuple[int, int]:
 
 
 def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=None,
-           assembled=False) -> Report:
+           assembled=False, weights=None) -> Report:
     """:func:`check` on validated ``V`` (float64) and ``T`` (int64), reusing what the
     caller already has: the ``boundary`` vertex mask, the ``mesh_volume``, and
-    ``assembled=True`` when ``L`` is ``laplacian(V, T, kind, degenerate="skip")`` itself."""
+    ``assembled=True`` when ``L`` is ``laplacian(V, T, kind, degenerate="skip",
+    weights=weights)`` itself (``weights``: the vertex weights of a weighted dual, for its
+    element certificate)."""
     n = V.shape[0]
     L = _arrays.matrix(L, n, finite=False)  # a NaN or Inf is reported, not refused
     if boundary is None:
@@ -273,7 +275,7 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
     if nsd and not c["finite"]:
         method = "skipped (not finite)"
     elif nsd:
-        nsd_ok, min_eig, method = _nsd(L, V, T, scale, kind, assembled)
+        nsd_ok, min_eig, method = _nsd(L, V, T, scale, kind, assembled, weights)
 
     edges, inner = c["n_edges"], c["n_edges_inner"]
     report = Report(
@@ -369,15 +371,16 @@ def _dense(S: sp.csr_array, diagonal: np.ndarray):
     return verdict, lam
 
 
-def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool):
+def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights=None):
     """(is NSD, smallest eigenvalue of -L or a witness' Rayleigh quotient, method): the
-    cheapest answer first (see :func:`check`, Notes)."""
+    cheapest answer first (see :func:`check`, Notes); ``weights`` those of a weighted dual
+    (``kind="dual"``, ``assembled=True``)."""
     n = L.shape[0]
     S = (L + L.T) / 2
     S.sort_indices()
     diagonal = np.abs(S.diagonal())
     tol = NSD_RTOL * diagonal
-    answer = _element_certificate(S, V, T, scale, tol, kind, assembled)
+    answer = _element_certificate(S, V, T, scale, tol, kind, assembled, weights)
     if answer is not None:
         return answer
     verdict, name, details = _core.negative_semidefinite(n, _sparse.arrays(S), tol)
@@ -412,14 +415,16 @@ def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool):
     return None, None, f"undetermined: {reason} (n > {limit})"
 
 
-def _element_certificate(S, V, T, scale: float, tol: np.ndarray, kind, assembled: bool):
+def _element_certificate(S, V, T, scale: float, tol: np.ndarray, kind, assembled: bool,
+                         weights=None):
     """The NSD answer from the per-tet matrices, if ``S`` (the symmetric part of ``L``) is
     the mesh's operator ``kind`` (the primal, then the dual, when ``kind`` is None):
     ``-S = sum_t K_t + E`` with ``|x^T E x| <= sum_i gap_i x_i^2``; every ``K_t`` is
     checked, failing ones in small groups of neighbours, with the shifts ``tol - gap``
     (:func:`tetlap._core.element_certificate`). None when ``S`` is none of them, a gap
     exceeds its vertex's tolerance or a group could not be certified. ``assembled``: ``L``
-    is that operator (gaps zero)."""
+    is that operator (gaps zero), with the vertex ``weights`` of a weighted dual if
+    given."""
     n = V.shape[0]
     if kind == "cell":  # a cell operator is no sum of per-tet matrices on the vertices
         return None
@@ -431,11 +436,12 @@ def _element_certificate(S, V, T, scale: float, tol: np.ndarray, kind, assembled
             continue
         if (gaps > tol).any():
             return None
-        W = assembly._element_laplacians(V, T, candidate)
+        W = assembly._element_laplacians(V, T, candidate, weights if assembled else None)
         verdict, _, details = _core.element_certificate(T, n, W, tol - gaps)
         if not verdict:
             return None
         name = candidate if isinstance(candidate, str) else f"t = {candidate:g} affine"
+        name = f"weighted {name}" if weights is not None and assembled else name
         groups = details["groups"]
         covered = (f", except in {groups} groups of <= {details['largest']} neighbouring tets "
                    "whose sums are positive semidefinite" if groups else "")

@@ -269,14 +269,14 @@ def _operators_skipping(V, T, laplacian, mass):
     return _sparse.csr(L, n), _sparse.mass(M, n), skipped
 
 
-def _element_laplacians(V, T, kind) -> np.ndarray:
+def _element_laplacians(V, T, kind, weights=None) -> np.ndarray:
     """(m, 10) for tets, (m, 6) for triangles: each element's edge weights (as
     :func:`element_contributions`) then its diagonal entries ``L_aa`` at its corners, with
     ``degenerate="skip"`` (zeros for a dropped element). The primal's entries are
     ``-Vol |grad lambda_a|^2`` computed on their own, accurate where minus the sum of the
-    corner's weights cancels (a needle); the dual's are minus that sum. ``V``, ``T``
-    validated."""
-    return _core.assemble(V, T, ("element_laplacians", kind),
+    corner's weights cancels (a needle); the dual's are minus that sum, of the weighted
+    dual with vertex ``weights`` (n,) if given. ``V``, ``T``, ``weights`` validated."""
+    return _core.assemble(V, T, ("element_laplacians", kind), weights=weights,
                           options=_options("circumcentric", "skip", None))
 
 

@@ -44,7 +44,7 @@ __all__ = ["report", "regular_summary", "plot", "plot_names", "PAIRS", "SCHEMA_V
 #: 1: the counts at the top level, ``negative_weight_fraction_interior``; 2: the counts
 #: under ``"mesh"``, ``negative_fraction_interior``, ``schema_version`` itself; 3:
 #: ``nsd_min_eigenvalue`` renamed ``nsd_min_eigenvalue_upper_bound`` (a witness's
-#: Rayleigh quotient is an upper bound, not the eigenvalue).
+#: Rayleigh quotient is an upper bound, not the eigenvalue), ``regular.guarantees``.
 SCHEMA_VERSION = 3
 
 #: The operators of the report: (Laplacian kind, mass kind).
@@ -190,7 +190,9 @@ def regular_summary(V, T, result: RegularWeights | None = None, *, nsd: bool = F
     -------
     dict
         ``regular`` (bool), ``status`` (``"regular"``, ``"not regular"`` or
-        ``"undecided"``), ``margin``, ``margin_plain``, ``n_non_delaunay_faces``,
+        ``"undecided"``), ``guarantees`` (:attr:`tetlap.RegularWeights.guarantees`:
+        "yes", "no" or "not checked" for non-negative interior weights, positive control
+        volumes and semidefiniteness of the weighted dual), ``margin``, ``margin_plain``, ``n_non_delaunay_faces``,
         ``n_weighted_vertices``, ``negative_interior_weights`` ({"dual",
         "weighted_dual", "primal"}: counts on edges not both on the boundary), ``nsd``
         (same keys, or None), ``linear_precision_weighted_dual`` (bool, None without
@@ -229,6 +231,7 @@ def regular_summary(V, T, result: RegularWeights | None = None, *, nsd: bool = F
     return {
         "regular": bool(result.regular),
         "status": result.status,
+        "guarantees": result.guarantees,
         "margin": result.margin,
         "margin_plain": result.margin_plain,
         "n_non_delaunay_faces": result.n_violated_plain,

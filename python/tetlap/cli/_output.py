@@ -149,7 +149,11 @@ def regular_section(r: dict) -> str:
     verdict = {"regular": "yes", "not regular": "no (proved)",
                "undecided": "undecided"}[r["status"]]
     n = r["negative_interior_weights"]
-    lines = [f"regular (weighted Delaunay): {verdict}; margin {r['margin']:+.3e} with the "
+    g = r.get("guarantees") or {}
+    safe = ("; the weighted dual: interior weights >= 0 {nonnegative_interior}, control "
+            "volumes > 0 {positive_masses}, semidefinite {semidefinite}").format(**g) if g else ""
+    lines = [f"regular (weighted Delaunay): {verdict}{safe}",
+             f"margin {r['margin']:+.3e} with the "
              f"weights found ({r['n_weighted_vertices']} non-zero), {r['margin_plain']:+.3e} "
              f"without; {r['seconds']:.2f} s",
              f"negative interior weights: dual {n['dual']}, weighted dual {n['weighted_dual']}, "

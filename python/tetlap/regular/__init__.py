@@ -56,13 +56,13 @@ import time
 
 import numpy as np
 
-from .. import _arrays, _options, assembly, diagnostics
+from .. import _arrays, _options, analysis, assembly, diagnostics
 from .._float_range import LARGEST, SMALLEST, unit_scale
 from ..errors import DegenerateElementError, NonFiniteError, OptionError
 from ..analysis import negative_weights
 from . import masses, search, verify
 from .conditions import Conditions, _validated, face_margins
-from .result import STATUSES, RegularWeights
+from .result import ANSWERS, STATUSES, RegularWeights
 from .search import TARGET_MARGIN, Budget, Certificate, Problem
 
 __all__ = [
@@ -136,12 +136,47 @@ class Decision:
     outcome: search.Outcome | None = None
     mass_step: masses.MassStep | None = None
     notes: list[str] = dataclasses.field(default_factory=list)
+    #: The plain dual and its circumcentric mass, once assembled (the mass step and the
+    #: report share them).
+    plain_dual: tuple | None = None
 
 
-def _dual_counts(V, T, w, on_boundary, threads):
-    """(negative interior weights, circumcentric masses) of the (weighted) dual."""
-    L, M = assembly.operators(V, T, "dual", "circumcentric", weights=w, threads=threads)
-    return negative_weights(L, V, T, on_boundary)[1], M.diagonal()
+def _answer(value: bool | None) -> str:
+    """``"yes"``, ``"no"`` or ``"not checked"`` (None) of :data:`ANSWERS`."""
+    return ANSWERS[2] if value is None else ANSWERS[0] if value else ANSWERS[1]
+
+
+@dataclasses.dataclass(frozen=True)
+class DualReport:
+    """What the report needs of a (weighted) dual: its negative interior weights, its
+    circumcentric masses (n,), and (for the weights returned) whether it is negative
+    semidefinite (None: undecided) and how that was decided."""
+
+    n_negative_interior: int
+    masses: np.ndarray
+    semidefinite: bool | None = None
+    semidefinite_method: str = ""
+
+
+def _plain_dual(V, T, d: Decision, threads) -> tuple:
+    """``(L, M)`` of the plain dual, assembled once into ``d.plain_dual``."""
+    if d.plain_dual is None:
+        d.plain_dual = assembly.operators(V, T, "dual", "circumcentric", threads=threads)
+    return d.plain_dual
+
+
+def _dual_report(V, T, w, on_boundary, threads, semidefinite: bool,
+                 operators: tuple | None = None) -> DualReport:
+    """The (weighted, ``w``; None: plain) dual and its mass (``operators``, or assembled
+    here), checked by :func:`tetlap.check`'s one rule (its certificates of
+    semidefiniteness when ``semidefinite``)."""
+    L, M = operators or assembly.operators(V, T, "dual", "circumcentric", weights=w,
+                                           threads=threads)
+    if not semidefinite:
+        return DualReport(negative_weights(L, V, T, on_boundary)[1], M.diagonal())
+    report = analysis._check(L, V, T, None, kind="dual", negative_tol=analysis.NEGATIVE_TOL,
+                             nsd=True, boundary=on_boundary, assembled=True, weights=w)
+    return DualReport(report.n_negative_interior, M.diagonal(), report.nsd, report.nsd_method)
 
 
 def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str = "free",
@@ -177,7 +212,8 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
         depends on the machine's speed and load. The set-up (the face conditions and the
         check of ``w = 0``, about ten assemblies' time) runs before the search can stop,
         and the check of the weights and the final report (two assemblies of the dual and
-        their checks) after it: ``time_limit=0.05`` takes about as long as
+        their checks; past the limit, the weighted dual's semidefiniteness is "not
+        checked") after it: ``time_limit=0.05`` takes about as long as
         ``max_iterations=1`` (see Cost).
     threads : int or None, the core's worker threads (None: all cores). The result does
         not depend on it.
@@ -228,12 +264,14 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
     :class:`tetlap.NonFiniteError`.
 
     Cost: besides the budgeted iterations, every call computes the face conditions and
-    checks ``w = 0``; a mesh with cospherical faces solves one LP with 7 unknowns (the
-    quadratic lifting); and the report assembles the dual twice and checks the weights.
-    All of it is linear in the mesh: with ``max_iterations=1``, 1-2 s on 94k tets and 5-8 s
-    on 384k (jittered Kuhn grids, ``meshes.cube(25 | 40, jitter=0.2)``, on a loaded
-    2-core machine; at 384k about 2 s check ``w = 0``, 1.5 s the lifting's LP, 0.6 s the
-    conditions, 0.7 s the search's set-up, 0.5 s the report).
+    checks ``w = 0`` (in the core, one pass each); a mesh with cospherical faces solves one
+    LP with 7 unknowns (the quadratic lifting); and the report assembles the dual twice,
+    checks both and decides the weighted dual's semidefiniteness by :func:`tetlap.check`'s
+    certificates. All of it is linear in the mesh: with ``max_iterations=1``, 0.9 s on 94k
+    tets and 2.7 s on 384k (jittered Kuhn grids, ``meshes.cube(25 | 40, jitter=0.2)``, on a
+    loaded 2-core machine: 25-30 assemblies of the dual). A search iteration costs the
+    faces near their aims and their vertices, not the mesh (about 5 ms on the 215k-tet
+    ``meshes.weighted_ball(34000, 0.01)``, which needs 288: 25-46 assemblies in all).
 
     Raises
     ------
@@ -274,8 +312,8 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
                     deadline=None if time_limit is None else start + float(time_limit))
     with _no_degenerate_advice():
         cond = Conditions.of(X, T_used, threads)
-        result = _report(X, T_used, cond, settings, _decide(X, T_used, cond, settings, budget),
-                         start)
+        decision = _decide(X, T_used, cond, settings, budget)
+        result = _report(X, T_used, cond, settings, decision, start, late=budget.late())
     return _in_user_units(result, used, len(V), scale)
 
 
@@ -320,7 +358,8 @@ def _in_user_units(r: RegularWeights, used: np.ndarray, n: int, scale: float
 def _decide(V, T, cond: Conditions, settings: Settings, budget: Budget) -> Decision:
     """Steps 1-5 of :func:`regular_weights`."""
     zero = np.zeros(len(V))
-    plain = verify.check_margins(V, T, cond.interior, zero, exact=False)
+    plain = verify.check_margins(V, T, cond.interior, zero, exact=False,
+                                 threads=settings.threads)
     d = Decision(w=zero, status="undecided", plain=plain, final=plain)
     if len(cond.nonmanifold):
         triangles = cond.nonmanifold
@@ -366,7 +405,7 @@ def _find(V, T, cond: Conditions, settings: Settings, budget: Budget, d: Decisio
                               budget, d.notes, settings.threads)
     u = d.outcome.u
     if d.outcome.status == "reached" and settings.mass_floor is not None:
-        plain_masses = masses.circumcentric_masses(V, T, None, settings.threads)
+        plain_masses = _plain_dual(V, T, d, settings.threads)[1].diagonal()
         u, d.mass_step = masses.keep_masses(V, T, problem, d.outcome, lo, hi, plain_masses,
                                             settings.mass_floor, budget, settings.threads)
         if d.mass_step.lost or d.mass_step.deficit:
@@ -378,20 +417,30 @@ def _find(V, T, cond: Conditions, settings: Settings, budget: Budget, d: Decisio
         return
     d.w = u * scale
     # w = 0 (a search stopped before its first step): the check of w = 0 is done already
-    d.final = d.plain if not d.w.any() else verify.check_margins(V, T, cond.interior, d.w)
+    d.final = (d.plain if not d.w.any()
+               else verify.check_margins(V, T, cond.interior, d.w, threads=settings.threads))
     if d.outcome.status != "reached" and len(d.final.failed) > len(d.plain.failed):
         d.notes.append("the search's weights leave more faces not strictly regular than "
                        "w = 0: w = 0")
         d.w, d.final = np.zeros(len(V)), d.plain
 
 
-def _report(V, T, cond: Conditions, settings: Settings, d: Decision, start: float
-            ) -> RegularWeights:
-    """The counts and the result."""
+def _report(V, T, cond: Conditions, settings: Settings, d: Decision, start: float,
+            late: bool = False) -> RegularWeights:
+    """The counts and the result; ``late``: past the caller's time limit, so the
+    semidefiniteness of the weighted dual is not checked."""
     w, threads = d.w, settings.threads
-    n_neg_plain, m_plain = _dual_counts(V, T, None, cond.on_boundary, threads)
-    n_neg_w, m_weighted = ((n_neg_plain, m_plain) if not w.any()
-                           else _dual_counts(V, T, w, cond.on_boundary, threads))
+    check = not late
+    plain = _dual_report(V, T, None, cond.on_boundary, threads, check and not w.any(),
+                         _plain_dual(V, T, d, threads))
+    weighted = (plain if not w.any()
+                else _dual_report(V, T, w, cond.on_boundary, threads, check))
+    if late:
+        weighted = dataclasses.replace(weighted, semidefinite_method="not checked: past the "
+                                       "time limit")
+    n_neg_plain, m_plain = plain.n_negative_interior, plain.masses
+    n_neg_w, m_weighted = weighted.n_negative_interior, weighted.masses
+    masses_lost = np.flatnonzero((m_plain > 0) & (m_weighted <= 0)).astype(np.int64)
     g = cond.per_face(cond.margins(w))
     g_plain = cond.per_face(cond.g0)
     positive = m_plain > 0
@@ -431,7 +480,7 @@ def _report(V, T, cond: Conditions, settings: Settings, d: Decision, start: floa
         n_negative_interior_weighted=n_neg_w,
         mass_min_plain=float(m_plain.min()),
         mass_min_weighted=float(m_weighted.min()),
-        masses_lost=np.flatnonzero(positive & (m_weighted <= 0)).astype(np.int64),
+        masses_lost=masses_lost,
         masses_below_floor=np.flatnonzero(
             positive & (m_weighted < mass_floor * m_plain)).astype(np.int64),
         seconds=time.perf_counter() - start,
@@ -444,5 +493,10 @@ def _report(V, T, cond: Conditions, settings: Settings, d: Decision, start: floa
         iterations=iterations,
         lp_count=d.outcome.lps if d.outcome else 0,
         mass_rounds=d.mass_step.rounds if d.mass_step else 0,
+        nonnegative_interior=_answer(n_neg_w == 0),
+        positive_masses=_answer(not len(masses_lost)),
+        semidefinite=_answer(weighted.semidefinite),
+        semidefinite_method=weighted.semidefinite_method,
+        n_masses_nonpositive_plain=int((m_plain <= 0).sum()),
     )
 

@@ -6,13 +6,17 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["RegularWeights", "STATUSES"]
+__all__ = ["RegularWeights", "STATUSES", "ANSWERS"]
 
 #: The values of :attr:`RegularWeights.status`: ``"regular"`` (the weights returned make
 #: every interior face strictly locally regular: checked), ``"not regular"`` (proved: a
 #: checked certificate, :attr:`RegularWeights.certificate_kind`) and ``"undecided"``
 #: (neither within the budget; the notes say why).
 STATUSES = ("regular", "not regular", "undecided")
+#: The values of the three guarantees of :class:`RegularWeights`
+#: (:attr:`~RegularWeights.nonnegative_interior`, :attr:`~RegularWeights.positive_masses`,
+#: :attr:`~RegularWeights.semidefinite`): checked true, checked false, or not decided.
+ANSWERS = ("yes", "no", "not checked")
 
 
 def _empty_faces() -> np.ndarray:
@@ -71,6 +75,22 @@ class RegularWeights:
         ``sum_f y_f margin_f(w)`` = 0 for every ``w`` (exact multipliers, rounded), so some
         face of the certificate has margin ``<= 0`` whatever the weights; ones otherwise.
     verification : str, how the status was checked, independently of the search.
+    nonnegative_interior : str, one of :data:`ANSWERS`: whether every weight of the
+        weighted dual on an edge not both on the boundary is non-negative
+        (``n_negative_interior_weighted == 0``, the rule of :func:`tetlap.check`).
+        ``"regular"`` implies it (up to that rule's rounding tolerance); the field is
+        checked on the weighted dual itself, whatever the status.
+    positive_masses : str, one of :data:`ANSWERS`: whether every weighted circumcentric
+        mass (control volume) is positive where the plain dual's is (``masses_lost``
+        empty); ``n_masses_nonpositive_plain`` says how many are not positive in the
+        plain dual already. A "no" is about these weights only: there is no proof that no
+        regular weights keep them (the mass step is a search, :mod:`~tetlap.regular.masses`).
+    semidefinite : str, one of :data:`ANSWERS`: whether the weighted dual is negative
+        semidefinite, decided by :func:`tetlap.check`'s certificates (``semidefinite_method``
+        names the one that decided, or why none did: then ``"not checked"``).
+    semidefinite_method : str.
+    n_masses_nonpositive_plain : int, vertices in tets whose plain circumcentric mass is
+        ``<= 0``.
     iterations : int, L-BFGS iterations (search and mass step).
     lp_count : int, certificate LPs solved.
     mass_rounds : int, rounds of the mass step.
@@ -104,16 +124,30 @@ class RegularWeights:
     iterations: int = 0
     lp_count: int = 0
     mass_rounds: int = 0
+    nonnegative_interior: str = "not checked"
+    positive_masses: str = "not checked"
+    semidefinite: str = "not checked"
+    semidefinite_method: str = ""
+    n_masses_nonpositive_plain: int = 0
 
     @property
     def regular(self) -> bool:
         return self.status == "regular"
 
+    @property
+    def guarantees(self) -> dict[str, str]:
+        """What the weights give a finite-volume code, each one of :data:`ANSWERS`:
+        ``{"nonnegative_interior", "positive_masses", "semidefinite"}``. Being regular is
+        not all of it: a regular mesh's weights can still lose control volumes at the
+        boundary and leave the weighted dual indefinite."""
+        return {"nonnegative_interior": self.nonnegative_interior,
+                "positive_masses": self.positive_masses, "semidefinite": self.semidefinite}
+
     def to_dict(self) -> dict:
         """A JSON-ready dict of the scalar fields and counts (arrays summarised as
         ``n_<name>``; ``weights``, ``face_margins`` and ``certificate_multipliers`` left
         out)."""
-        out = {"regular": self.regular}
+        out = {"regular": self.regular, "guarantees": self.guarantees}
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
             if f.name in ("weights", "face_margins", "certificate_multipliers"):
@@ -129,17 +163,27 @@ class RegularWeights:
     def __str__(self) -> str:
         verdict = {"regular": "yes", "not regular": "NO (proved)",
                    "undecided": "undecided"}[self.status]
+        shout = {"yes": "yes", "no": "NO", "not checked": "not checked"}
+        # no certificate that no weights keep them exists yet: say so
+        lost = (f" ({len(self.masses_lost)} lost; no proof either way that other weights "
+                "keep them)" if len(self.masses_lost) else "")
         lines = [
-            f"regular: {verdict} (margin {self.margin:.3e}; plain dual "
-            f"{self.margin_plain:.3e}, {self.n_violated_plain} non-Delaunay and "
-            f"{self.n_cospherical_plain} cospherical faces)",
+            f"regular: {verdict}; interior weights >= 0: {shout[self.nonnegative_interior]}; "
+            f"control volumes > 0 where the plain dual's are: "
+            f"{shout[self.positive_masses]}{lost}; semidefinite: {shout[self.semidefinite]}",
+            f"margin {self.margin:.3e} (plain dual {self.margin_plain:.3e}, "
+            f"{self.n_violated_plain} non-Delaunay and {self.n_cospherical_plain} cospherical "
+            "faces)",
             f"weights: {self.n_weighted_vertices} non-zero; negative interior weights "
             f"{self.n_negative_interior_plain} (plain dual) -> "
             f"{self.n_negative_interior_weighted} (weighted dual)",
             f"masses: min {self.mass_min_plain:.3e} -> {self.mass_min_weighted:.3e}; "
             f"{len(self.masses_lost)} turned non-positive, {len(self.masses_below_floor)} "
-            "below the floor",
+            f"below the floor ({self.n_masses_nonpositive_plain} non-positive in the plain "
+            "dual)",
         ]
+        if self.semidefinite_method:
+            lines.append(f"semidefinite: {self.semidefinite_method}")
         if len(self.violated_faces):
             lines.append(f"violated faces: {len(self.violated_faces)} ({self.n_folded} folded)")
         if self.certificate_kind is not None:

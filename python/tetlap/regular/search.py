@@ -73,10 +73,14 @@ class Problem:
 
     @classmethod
     def of(cls, cond: Conditions, scale: np.ndarray) -> Problem:
-        rows = np.flatnonzero(~cond.folded[cond.face])
-        vertices = cond.vertices[rows]
-        return cls(rows=rows, vertices=vertices, g0=cond.g0[rows],
-                   coefficients=cond.coefficients[rows] * scale[vertices], scale=scale)
+        if not cond.folded.any():       # every row (no copies)
+            rows, vertices, g0 = np.arange(len(cond.g0)), cond.vertices, cond.g0
+            coefficients = cond.coefficients * scale[vertices]
+        else:
+            rows = np.flatnonzero(~cond.folded[cond.face])
+            vertices, g0 = cond.vertices[rows], cond.g0[rows]
+            coefficients = cond.coefficients[rows] * scale[vertices]
+        return cls(rows=rows, vertices=vertices, g0=g0, coefficients=coefficients, scale=scale)
 
     @property
     def n(self) -> int:

@@ -8,7 +8,9 @@ weights found, seen from both of its tets: the lifted orientation determinant
 
 (``C_i`` the cofactors of the lifted column, rows ``i`` the corners of the tet, ``q`` the
 other tet's opposite vertex; ``D / norm`` is the margin, ``norm > 0``) is positive. It is
-evaluated in float64 (NumPy, vectorised) together with its *permanent* ``P`` (the same sum
+evaluated in float64 (by the core, ``tetlap._core.regular_signs``: every face view on its
+own, in parallel, by code that shares nothing with the search's rows) together with its
+*permanent* ``P`` (the same sum
 with every product of absolute values, ``|e_i|^2 + |w_i - w_q|`` for the lifted entries).
 The rounding error of that evaluation is at most a few dozen units in the last place of
 ``P``, so ``|D| > VERIFY_RTOL * P`` (:data:`VERIFY_RTOL` = 1e-12, more than 4000 units)
@@ -38,51 +40,15 @@ from math import gcd
 
 import numpy as np
 
+from .. import _core
+
 __all__ = ["VERIFY_RTOL", "MarginCheck", "check_margins", "check_certificate", "check_folded",
            "check_nonmanifold"]
 
 #: Relative tolerance of the float64 test of a lifted determinant against its permanent;
-#: within it, exact arithmetic decides (module docstring).
+#: within it, exact arithmetic decides (module docstring; the core's
+#: ``tetlap::analysis::regular::VERIFY_RTOL``).
 VERIFY_RTOL = 1e-12
-#: Rows per vectorised chunk of the float test (bounds the temporary memory).
-_CHUNK = 65536
-
-
-def _cofactors(E):
-    """(..., 4) the cofactors ``C_i`` of the lifted column of ``det[e_i, s_i]`` for rows
-    ``E`` (..., 4, 3), and their permanents (products of absolute values)."""
-    def det3(a, b, c):
-        return (a[..., 0] * (b[..., 1] * c[..., 2] - b[..., 2] * c[..., 1])
-                - a[..., 1] * (b[..., 0] * c[..., 2] - b[..., 2] * c[..., 0])
-                + a[..., 2] * (b[..., 0] * c[..., 1] - b[..., 1] * c[..., 0]))
-
-    def perm3(a, b, c):
-        a, b, c = abs(a), abs(b), abs(c)
-        return (a[..., 0] * (b[..., 1] * c[..., 2] + b[..., 2] * c[..., 1])
-                + a[..., 1] * (b[..., 0] * c[..., 2] + b[..., 2] * c[..., 0])
-                + a[..., 2] * (b[..., 0] * c[..., 1] + b[..., 1] * c[..., 0]))
-
-    e = [E[..., i, :] for i in range(4)]
-    rows = ((1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2))
-    sign = (-1, 1, -1, 1)
-    C = np.stack([s * det3(*(e[k] for k in r)) for s, r in zip(sign, rows)], axis=-1)
-    P = np.stack([perm3(*(e[k] for k in r)) for r in rows], axis=-1)
-    return C, P
-
-
-def _float_test(V, w, R, q):
-    """For rows ``R`` (k, 4) (a tet's corners) and opposite vertices ``q`` (k,): the sign
-    of the lifted determinant ``D`` (+1, -1, or 0 where float64 cannot tell)."""
-    E = V[R] - V[q][:, None, :]
-    omega = w[R] - w[q][:, None]
-    lengths = np.einsum("kij,kij->ki", E, E)
-    C, P = _cofactors(E)
-    orient, orient_perm = C.sum(axis=1), P.sum(axis=1)
-    D = np.einsum("ki,ki->k", C, lengths - omega)
-    bound = np.einsum("ki,ki->k", P, lengths + np.abs(omega))
-    with np.errstate(invalid="ignore"):
-        sure = (np.abs(orient) > VERIFY_RTOL * orient_perm) & (np.abs(D) > VERIFY_RTOL * bound)
-    return np.where(sure, -np.sign(orient) * np.sign(D), 0.0).astype(np.int8)
 
 
 def _exact_vector(x) -> list[Fraction]:
@@ -139,23 +105,23 @@ class MarginCheck:
         return np.flatnonzero(self.sign <= 0)
 
 
-def check_margins(V, T, interior, w, exact: bool = True) -> MarginCheck:
+def check_margins(V, T, interior, w, exact: bool = True, threads: int | None = None
+                  ) -> MarginCheck:
     """Whether the weights ``w`` (n,) make every interior face of ``(V, T)`` strictly
     locally regular, from both of its tets (module docstring). ``interior`` (f, 4) is the
     face table ``[tet, corner, tet, corner]`` (:func:`tetlap.diagnostics.interior_faces`
     order); ``V`` (n, 3) float64, ``T`` (m, 4) int64. With ``exact=False`` the face views
     within rounding of 0 are left undecided (sign 0) instead of being decided exactly (a
-    cospherical mesh has many)."""
-    t1, c1, t2, c2 = (interior[:, k] for k in range(4))
-    p, q = T[t1, c1], T[t2, c2]
+    cospherical mesh has many). ``threads``: the core's worker threads (the answer does not
+    depend on them)."""
     f = len(interior)
-    R = np.concatenate([T[t1], T[t2]])
-    opposite = np.concatenate([q, p])
-    sign = np.concatenate([_float_test(V, w, R[s:s + _CHUNK], opposite[s:s + _CHUNK])
-                           for s in range(0, 2 * f, _CHUNK)]) if f else np.zeros(0, np.int8)
+    sign = _core.regular_signs(V, T, interior, w if w.any() else None,
+                               options={"threads": threads})
     unsure = np.flatnonzero(sign == 0) if exact else np.zeros(0, dtype=np.int64)
     for k in unsure:
-        sign[k] = _exact_sign(V, w, R[k], opposite[k])
+        t1, c1, t2, c2 = (int(x) for x in interior[k % f])
+        tet, q = (T[t1], T[t2, c2]) if k < f else (T[t2], T[t1, c1])
+        sign[k] = _exact_sign(V, w, [int(v) for v in tet], int(q))
     per_face = np.minimum(sign[:f], sign[f:])
     return MarginCheck(proved=bool((per_face > 0).all()), sign=per_face, exact=int(len(unsure)))
 

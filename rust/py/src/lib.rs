@@ -40,7 +40,7 @@ mod _core {
     #[pymodule_export]
     use crate::gradient::gradients;
     #[pymodule_export]
-    use crate::regular::{regular_conditions, regular_masses, regular_search};
+    use crate::regular::{regular_conditions, regular_masses, regular_search, regular_signs};
     #[pymodule_export]
     use crate::solve::PyFactor;
 

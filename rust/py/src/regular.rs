@@ -169,6 +169,34 @@ pub fn regular_conditions<'py>(
     Ok(d)
 }
 
+/// The sign of every interior face view's lifted determinant for `weights` (n,) or None
+/// ([`regular::lifted_signs`]): (2 f,) int8, the views from the first tets, then from the
+/// second; 0 where float64 cannot tell.
+#[pyfunction]
+#[pyo3(signature = (points, cells, interior, weights=None, *, options=None))]
+pub fn regular_signs<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    cells: PyReadonlyArray2<'py, i64>,
+    interior: PyReadonlyArray2<'py, i64>,
+    weights: Option<PyReadonlyArray1<'py, f64>>,
+    options: Option<OptionsArg>,
+) -> PyResult<Bound<'py, PyArray1<i8>>> {
+    let opts = OptionsArg::options(options);
+    let input = Input::new(py, &points, &cells, None, &opts)?;
+    if interior.shape()[1] != 4 {
+        return Err(shape_error(py, "internal: the face table has 4 columns".into()));
+    }
+    let interior: Vec<[u32; 4]> =
+        contiguous(py, &interior)?.chunks_exact(4).map(|r| std::array::from_fn(|k| u32::try_from(r[k]).unwrap_or(u32::MAX))).collect();
+    let weights = weights.map(|w| contiguous(py, &w).map(<[f64]>::to_vec)).transpose()?;
+    let signs = compute(py, opts, move |opts| {
+        let mesh = input.tets("regular weights")?;
+        regular::lifted_signs(&mesh, &interior, weights.as_deref(), opts)
+    })?;
+    Ok(PyArray1::from_vec(py, signs))
+}
+
 /// One search ([`regular::search`]) from `u` (n,) within `budget = (iterations, seconds or
 /// None)`: `(u, stop, iterations, short_rows int64, short_y)`, `stop` one of "done",
 /// "stalled", "iterations", "deadline".

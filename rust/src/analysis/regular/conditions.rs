@@ -198,6 +198,90 @@ pub fn conditions(mesh: &TetView, interior: &[[u32; 4]], opts: &Options) -> Resu
     Ok(c)
 }
 
+/// Relative tolerance of [`lifted_signs`]: a lifted determinant is decided in float64 when
+/// it exceeds this fraction of its permanent (its rounding error is at most a few dozen
+/// units in the last place of the permanent, far below).
+pub const VERIFY_RTOL: f64 = 1e-12;
+
+/// `(determinant, permanent)` of the 3 x 3 matrix of rows `a, b, c`.
+fn det_perm(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> (f64, f64) {
+    let det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+    let (a, b, c) = (a.map(f64::abs), b.map(f64::abs), c.map(f64::abs));
+    let perm = a[0] * (b[1] * c[2] + b[2] * c[1]) + a[1] * (b[0] * c[2] + b[2] * c[0]) + a[2] * (b[0] * c[1] + b[1] * c[0]);
+    (det, perm)
+}
+
+/// The sign of one view's lifted determinant (tet `tet` against the vertex `q`), or 0 where
+/// float64 cannot tell (see [`lifted_signs`]).
+fn lifted_sign(points: &[f64], weights: Option<&[f64]>, tet: [u32; 4], q: u32) -> i8 {
+    let x = |v: u32| -> [f64; 3] { std::array::from_fn(|k| points[3 * v as usize + k]) };
+    let w = |v: u32| weights.map_or(0.0, |w| w[v as usize]);
+    let xq = x(q);
+    let e: [[f64; 3]; 4] = tet.map(|v| {
+        let xv = x(v);
+        [xv[0] - xq[0], xv[1] - xq[1], xv[2] - xq[2]]
+    });
+    let omega = tet.map(|v| w(v) - w(q));
+    let rows = [(1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2)];
+    let sign = [-1.0, 1.0, -1.0, 1.0];
+    let (mut orient, mut orient_perm, mut d, mut bound) = (0.0, 0.0, 0.0, 0.0);
+    for (k, &(a, b, c)) in rows.iter().enumerate() {
+        let (det, perm) = det_perm(e[a], e[b], e[c]);
+        let cof = sign[k] * det;
+        let length = e[k][0] * e[k][0] + e[k][1] * e[k][1] + e[k][2] * e[k][2];
+        orient += cof;
+        orient_perm += perm;
+        d += cof * (length - omega[k]);
+        bound += perm * (length + omega[k].abs());
+    }
+    let sure = orient.abs() > VERIFY_RTOL * orient_perm && d.abs() > VERIFY_RTOL * bound;
+    if !sure {
+        0
+    } else if (orient > 0.0) == (d > 0.0) {
+        -1
+    } else {
+        1
+    }
+}
+
+/// The sign of the lifted determinant of every view of every interior face `[t1, c1, t2,
+/// c2]` of `interior`, for vertex weights `weights` (None: zeros): first the views from
+/// the first tets (`t1` against `T[t2][c2]`), then those from the second: `1` strictly
+/// locally regular, `-1` not, `0` within [`VERIFY_RTOL`] of the permanent (float64 cannot
+/// tell; decide it exactly). The determinant is
+/// `D = -sign(sum_i C_i) * sum_i C_i (|e_i|^2 - (w_i - w_q))`, `e_i = x_i - x_q`, `C_i` the
+/// cofactors of the lifted column: the test of `tetlap.regular.verify`, evaluated in the
+/// same order, independent of the conditions' rows. Deterministic (every view on its own).
+pub fn lifted_signs(mesh: &TetView, interior: &[[u32; 4]], weights: Option<&[f64]>, opts: &Options) -> Result<Vec<i8>> {
+    if mesh.dim() != 3 {
+        return Err(Error::Shape { what: format!("regular weights need points in R^3, got dimension {}", mesh.dim()) });
+    }
+    let cells = mesh.cells();
+    let m = cells.len() as u32;
+    if let Some(k) = interior.iter().position(|f| f[0] >= m || f[2] >= m || f[1] >= 4 || f[3] >= 4) {
+        return Err(Error::Shape { what: format!("interior face {k} is not [element, corner, element, corner] of this mesh") });
+    }
+    if weights.is_some_and(|w| w.len() != mesh.n_vertices()) {
+        return Err(Error::Shape { what: format!("{} vertex weights expected", mesh.n_vertices()) });
+    }
+    let f = interior.len();
+    let mut signs = vec![0i8; 2 * f];
+    let points = mesh.points();
+    opts.install(|| {
+        signs.par_chunks_mut(CHUNK).enumerate().try_for_each(|(c, chunk)| {
+            opts.cancelled()?;
+            for (k, slot) in chunk.iter_mut().enumerate() {
+                let view = c * CHUNK + k;
+                let [t1, c1, t2, c2] = interior[view % f];
+                let (tet, q) = if view < f { (t1, cells[t2 as usize][c2 as usize]) } else { (t2, cells[t1 as usize][c1 as usize]) };
+                *slot = lifted_sign(points, weights, cells[tet as usize], q);
+            }
+            Ok::<(), Error>(())
+        })
+    })?;
+    Ok(signs)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -257,6 +341,26 @@ mod tests {
             let r = *reference.get_or_insert((a, b));
             assert!((a - r.0).abs() < 1e-12 && (b - r.1).abs() < 1e-12, "{s}: {a} {b} vs {r:?}");
         }
+    }
+
+    #[test]
+    fn lifted_signs_agree_with_the_margins_and_leave_a_flat_lifting_undecided() {
+        let points = [0., 0., 0., 1., 0.1, 0., 0.2, 1., 0., 0.1, 0.3, 1., 1.1, 0.9, 0.8];
+        let tets = [[0, 1, 2, 3], [4, 2, 1, 3]];
+        let mesh = TetView::new(&points, 3, &tets).unwrap();
+        let opts = Options::default();
+        let interior = faces::<Tet>(&tets, 5, &opts).unwrap().interior;
+        let c = conditions(&mesh, &interior, &opts).unwrap();
+        // a large weight on the far vertex 4 makes the face non-regular
+        for w in [[0.0; 5], [0.1, -0.05, 0.2, 0.0, 0.3], [0.0, 0.0, 0.0, 0.0, 5.0]] {
+            let signs = lifted_signs(&mesh, &interior, Some(&w), &opts).unwrap();
+            let expected = if margin(&c, 0, &w) > 0.0 { 1 } else { -1 };
+            assert_eq!(signs, vec![expected, expected], "{w:?}");
+        }
+        assert_eq!(lifted_signs(&mesh, &interior, Some(&[0.0, 0.0, 0.0, 0.0, 5.0]), &opts).unwrap(), vec![-1, -1]);
+        // w = |x|^2 lifts every point onto a hyperplane: within rounding of 0, left to exact arithmetic
+        let flat: Vec<f64> = (0..5).map(|i| (0..3).map(|k| points[3 * i + k] * points[3 * i + k]).sum()).collect();
+        assert_eq!(lifted_signs(&mesh, &interior, Some(&flat), &opts).unwrap(), vec![0, 0]);
     }
 
     #[test]

@@ -13,7 +13,7 @@
 //! gradient is gathered per variable in row order) and sums are taken by fixed chunks: the
 //! values are bitwise the same for any thread count.
 
-use super::lbfgs::{fill, Objective, CHUNK};
+use super::lbfgs::{fill, Objective, CHUNK, PARALLEL};
 use rayon::prelude::*;
 
 /// `f(i)` for `i < n`, in parallel by chunks (sequential for small `n`).
@@ -100,7 +100,7 @@ impl Hinge {
     }
 
     /// `-sum_r x_r a_r` of variable `j`, gathered in row order.
-    #[inline]
+    #[cfg(test)]
     fn gather(&self, j: usize, x: &[f64]) -> f64 {
         let range = self.offsets[j]..self.offsets[j + 1];
         self.t_rows[range.clone()].iter().zip(&self.t_coef[range]).fold(0.0, |acc, (&r, a)| acc - a * x[r as usize])
@@ -133,31 +133,50 @@ impl Hinge {
 /// floor.
 ///
 /// Most rows are far above their aims (90% of the faces of a random mesh) and contribute
-/// nothing, so each evaluation visits a *working set* only, without changing a bit of the
-/// result: at a *reference* point (the first evaluation, and whenever the next one is out of
-/// reach) every row is evaluated, and the working set is the rows within [`REACH`]
-/// (times `|a_r|_1`) of their aim. A row outside it has `aim_r - g_r(u) <= -|a_r|_1 *
-/// reach` there, so it stays above its aim (and its floor) for every `u` with `|u -
-/// reference|_inf < reach`, and `F`, its gradient and the rows below their floors are those
-/// of the working set alone. Sums run over the rows in order, by fixed chunks.
+/// nothing, so each evaluation visits a *working set* only (the values are those of all
+/// rows, up to the order of the sums): at a *reference* point (the first evaluation, and whenever the next one is out of
+/// reach) every row is evaluated, and the working set is the rows within a reach (from
+/// [`REACH`], see [`RENEW`]; times `|a_r|_1`) of their aim. Every other row `r` has the
+/// slack `s_r = (g_r - aim_r) / |a_r|_1 >` reach there, and stays above its aim while each of its variables `j` moves
+/// less than `s_r` from the reference (`sum_k |a_rk| |du_k| < |a_r|_1 s_r`): each variable
+/// gets the *cap* `min s_r` over the rows outside the working set that hold it, and while
+/// every variable is within its cap, `F`, its gradient and the rows below their floors are
+/// those of the working set alone. Only the variables of working rows move (the gradient,
+/// and so every L-BFGS direction, is zero elsewhere), so an evaluation costs the working
+/// rows and their variables, not the mesh. Sums run over the working rows in order, by
+/// fixed chunks.
 pub struct Shortfall<'h> {
     hinge: &'h Hinge,
     below: usize,
     /// `|a_r|_1` of every row.
     norm1: Vec<f64>,
-    /// The reference point, the working rows (ascending) and how far from the reference
-    /// they stay exact.
+    /// The reference point (empty before the first evaluation).
     reference: Vec<f64>,
-    in_working: Vec<bool>,
-    reach: f64,
-    /// The variables of the working rows.
-    touched: Vec<bool>,
-    /// Scratch: `wgt * shortfall` of every row (0 outside the working set and at the aim).
+    /// The working rows, ascending, copied together (a [`Hinge`] of their own: scattered
+    /// over all rows, every value read would miss the cache), and per variable its cap
+    /// (infinite when no row outside the working set holds it).
+    working: Hinge,
+    cap: Vec<f64>,
+    /// The variables of the working rows, ascending, and per one of them its working rows
+    /// (positions in `working`, ascending) with their coefficients.
+    touched: Vec<u32>,
+    t_offsets: Vec<usize>,
+    t_rows: Vec<u32>,
+    t_coef: Vec<f64>,
+    /// Scratch: `wgt * shortfall` of every working row (0 at or above the aim).
     weighted: Vec<f64>,
+    /// The reach of the working set (from [`REACH`], doubled up to 1 while the reference
+    /// has to be renewed within [`RENEW`] evaluations), and the evaluations since it was.
+    reach: f64,
+    evaluations: usize,
 }
 
-/// The working set of [`Shortfall`]: rows within `REACH * |a_r|_1` of their aim.
-pub const REACH: f64 = 1.0;
+/// The working set of [`Shortfall`] starts as the rows within `REACH * |a_r|_1` of their aim.
+pub const REACH: f64 = 0.005;
+/// A reference renewed within this many evaluations doubles the reach: where many rows
+/// are short and the variables move far (a mesh with many faces to repair), a wider
+/// working set costs less than renewing it at every step.
+pub const RENEW: usize = 10;
 
 impl<'h> Shortfall<'h> {
     pub fn new(hinge: &'h Hinge) -> Self {
@@ -167,54 +186,93 @@ impl<'h> Shortfall<'h> {
             below: usize::MAX,
             norm1,
             reference: vec![],
-            in_working: vec![false; hinge.len()],
-            reach: 0.0,
+            working: Hinge::new(),
+            cap: vec![],
             touched: vec![],
-            weighted: vec![0.0; hinge.len()],
+            t_offsets: vec![],
+            t_rows: vec![],
+            t_coef: vec![],
+            weighted: vec![],
+            reach: REACH,
+            evaluations: 0,
         }
     }
 
-    /// Every row at `u`: the new reference and working set.
+    /// Every row at `u`: the new reference, working set and caps.
     fn refer(&mut self, u: &[f64]) {
+        if !self.reference.is_empty() && self.evaluations < RENEW {
+            self.reach = (2.0 * self.reach).min(1.0);
+        }
+        self.evaluations = 0;
+        let reach = self.reach;
         let h = self.hinge;
         let g = h.values(u);
         let slack: Vec<f64> = (0..h.len()).map(|r| (g[r] - h.aim[r]) / self.norm1[r]).collect();
-        for r in 0..h.len() {
-            self.in_working[r] = slack[r].is_nan() || slack[r] <= REACH;
-            if !self.in_working[r] {
-                self.weighted[r] = 0.0;
+        let in_working = |r: usize| slack[r].is_nan() || slack[r] <= reach;
+        let n = u.len();
+        // per variable: its cap
+        self.cap = map(n, |j| {
+            let range = h.offsets[j]..h.offsets[j + 1];
+            h.t_rows[range].iter().filter(|&&r| !in_working(r as usize)).fold(f64::INFINITY, |a, &r| a.min(slack[r as usize]))
+        });
+        // the working rows and their transpose, over the variables they touch
+        let mut working = Hinge::new();
+        let mut count = vec![0usize; n];
+        for r in (0..h.len()).filter(|&r| in_working(r)) {
+            let range = h.indptr[r]..h.indptr[r + 1];
+            h.cols[range.clone()].iter().for_each(|&j| count[j as usize] += 1);
+            working.cols.extend_from_slice(&h.cols[range.clone()]);
+            working.coef.extend_from_slice(&h.coef[range]);
+            working.indptr.push(working.cols.len());
+            working.g0.push(h.g0[r]);
+            working.aim.push(h.aim[r]);
+            working.floor.push(h.floor[r]);
+            working.wgt.push(h.wgt[r]);
+        }
+        self.touched = (0..n as u32).filter(|&j| count[j as usize] > 0).collect();
+        self.t_offsets = Vec::with_capacity(self.touched.len() + 1);
+        self.t_offsets.push(0);
+        let mut slot = vec![0usize; n];
+        for &j in &self.touched {
+            slot[j as usize] = *self.t_offsets.last().unwrap_or(&0);
+            self.t_offsets.push(slot[j as usize] + count[j as usize]);
+        }
+        let nnz = *self.t_offsets.last().unwrap_or(&0);
+        (self.t_rows, self.t_coef) = (vec![0; nnz], vec![0.0; nnz]);
+        for k in 0..working.len() {
+            for p in working.indptr[k]..working.indptr[k + 1] {
+                let s = &mut slot[working.cols[p] as usize];
+                (self.t_rows[*s], self.t_coef[*s]) = (k as u32, working.coef[p]);
+                *s += 1;
             }
         }
-        // the reach: how far u may move with every other row still above its aim
-        self.reach = slack.iter().filter(|&&s| s > REACH).fold(f64::INFINITY, |a, &s| a.min(s));
+        self.working = working;
+        self.weighted = vec![0.0; self.working.len()];
         self.reference = u.to_vec();
-        self.touched = vec![false; u.len()];
-        for r in (0..h.len()).filter(|&r| self.in_working[r]) {
-            h.cols[h.indptr[r]..h.indptr[r + 1]].iter().for_each(|&j| self.touched[j as usize] = true);
-        }
+    }
+
+    /// Whether some variable left its cap since the reference (or there is none yet).
+    fn out_of_reach(&self, u: &[f64]) -> bool {
+        self.reference.is_empty()
+            || u.iter().zip(&self.reference).zip(&self.cap).any(|((x, y), c)| {
+                let d = (x - y).abs();
+                d.is_nan() || d >= *c
+            })
     }
 }
 
 impl Objective for Shortfall<'_> {
     fn eval(&mut self, u: &[f64], grad: &mut [f64]) -> f64 {
-        let distance = if self.reference.is_empty() {
-            f64::INFINITY
-        } else {
-            u.iter().zip(&self.reference).fold(0.0f64, |a, (x, y)| a.max((x - y).abs()))
-        };
-        if distance.is_nan() || distance >= self.reach {
+        if self.out_of_reach(u) {
             self.refer(u);
         }
-        let h = self.hinge;
-        let in_working = &self.in_working;
+        self.evaluations += 1;
+        let h = &self.working;
         // every working row's weighted shortfall in its slot, by chunks: (F, rows below floor)
         let chunk = |(c, out): (usize, &mut [f64])| -> (f64, usize) {
             let (mut f, mut below) = (0.0, 0);
             for (k, slot) in out.iter_mut().enumerate() {
                 let r = c * CHUNK + k;
-                if !in_working[r] {
-                    continue;
-                }
                 let g = h.g0[r] + (h.indptr[r]..h.indptr[r + 1]).map(|p| h.coef[p] * u[h.cols[p] as usize]).sum::<f64>();
                 below += usize::from(g < h.floor[r]);
                 let short = h.aim[r] - g;
@@ -223,15 +281,20 @@ impl Objective for Shortfall<'_> {
             }
             (f, below)
         };
-        let parts: Vec<(f64, usize)> = if h.len() <= CHUNK {
+        let parts: Vec<(f64, usize)> = if h.len() < PARALLEL {
             self.weighted.chunks_mut(CHUNK).enumerate().map(chunk).collect()
         } else {
             self.weighted.par_chunks_mut(CHUNK).enumerate().map(chunk).collect()
         };
         self.below = parts.iter().map(|p| p.1).sum();
-        // the gradient, -sum_r weighted_r a_r, gathered per variable in row order
-        let (weighted, touched) = (&self.weighted, &self.touched);
-        fill(grad, |j| if touched[j] { h.gather(j, weighted) } else { 0.0 });
+        // the gradient, -sum_r weighted_r a_r, gathered per touched variable in row order
+        grad.iter_mut().for_each(|x| *x = 0.0);
+        let (weighted, offsets, rows, coef) = (&self.weighted, &self.t_offsets, &self.t_rows, &self.t_coef);
+        let gather = |k: usize| -> f64 {
+            (offsets[k]..offsets[k + 1]).fold(0.0, |acc, p| acc - coef[p] * weighted[rows[p] as usize])
+        };
+        let values = map(self.touched.len(), gather);
+        self.touched.iter().zip(values).for_each(|(&j, x)| grad[j as usize] = x);
         parts.iter().map(|p| p.0).sum()
     }
 

@@ -10,8 +10,11 @@
 //! over [`STALL_WINDOW`] iterations (a slow tail, where the caller looks for a proof of
 //! infeasibility or relaxes), when no descent step exists, or at the budget.
 //!
-//! Every sum over the variables is taken by fixed chunks added in order ([`dot`]), so the
-//! iterates are bitwise the same for any thread count.
+//! The vector work of an iteration is over the *live* variables only, those whose gradient
+//! has been non-zero (the others never move): on a mesh whose faces to repair are a few
+//! percent, a few percent of the vertices. Every sum over the variables is taken by fixed
+//! chunks added in order ([`dot`]), so the iterates are bitwise the same for any thread
+//! count.
 
 use crate::error::Result;
 use crate::options::Options;
@@ -30,6 +33,10 @@ pub const STALL_WINDOW: usize = 100;
 /// Chunk of the deterministic sums and of the parallel loops (fixed, whatever the thread
 /// count).
 pub(super) const CHUNK: usize = 4096;
+/// Vectors at least this long are summed and filled in parallel (by the same chunks, so
+/// the values do not depend on it); shorter ones in one thread, where waking the pool for
+/// a few microseconds of work costs more than it saves on a loaded machine.
+pub(super) const PARALLEL: usize = 1 << 16;
 
 /// A function to minimise.
 pub trait Objective {
@@ -84,23 +91,65 @@ impl Budget {
 
 /// `sum_i a_i b_i`, by fixed chunks added in order.
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let part = |(x, y): (&[f64], &[f64])| -> f64 { x.iter().zip(y).map(|(p, q)| p * q).sum() };
     if a.len() <= CHUNK {
-        return a.iter().zip(b).map(|(x, y)| x * y).sum();
+        return part((a, b));
     }
-    let parts: Vec<f64> =
-        a.par_chunks(CHUNK).zip(b.par_chunks(CHUNK)).map(|(x, y)| x.iter().zip(y).map(|(p, q)| p * q).sum()).collect();
+    let parts: Vec<f64> = if a.len() < PARALLEL {
+        a.chunks(CHUNK).zip(b.chunks(CHUNK)).map(part).collect()
+    } else {
+        a.par_chunks(CHUNK).zip(b.par_chunks(CHUNK)).map(part).collect()
+    };
     parts.iter().sum()
 }
 
 /// `out[i] = f(i)`, in parallel by chunks for long vectors.
 pub(super) fn fill(out: &mut [f64], f: impl Fn(usize) -> f64 + Sync + Send) {
-    if out.len() <= CHUNK {
+    if out.len() < PARALLEL {
         out.iter_mut().enumerate().for_each(|(i, x)| *x = f(i));
     } else {
         out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, chunk)| {
             chunk.iter_mut().enumerate().for_each(|(k, x)| *x = f(c * CHUNK + k));
         });
     }
+}
+
+/// The *live* variables: those whose gradient has been non-zero, in the order they became
+/// live. Every other variable has had a zero gradient at every point so far, so every
+/// L-BFGS direction (a combination of gradients) is zero there and it never moves: the
+/// vector work of an iteration is over the live ones only (compact vectors, indexed by
+/// position in `order`), not over all of `u`.
+struct Live {
+    order: Vec<u32>,
+    is_live: Vec<bool>,
+}
+
+impl Live {
+    fn new(n: usize) -> Self {
+        Live { order: vec![], is_live: vec![false; n] }
+    }
+
+    /// Adds the variables where `grad` is non-zero (or NaN), ascending.
+    fn grow(&mut self, grad: &[f64]) {
+        for (j, g) in grad.iter().enumerate() {
+            if *g != 0.0 && !self.is_live[j] {
+                self.is_live[j] = true;
+                self.order.push(j as u32);
+            }
+        }
+    }
+
+    /// `x[live]`, compact.
+    fn gather(&self, x: &[f64]) -> Vec<f64> {
+        self.order.iter().map(|&j| x[j as usize]).collect()
+    }
+}
+
+/// `sum_p a_p b_p` over the common length (the shorter vector is zero beyond its end), by
+/// fixed chunks ([`dot`]).
+fn dot_common(a: &[f64], b: &[f64]) -> f64 {
+    let k = a.len().min(b.len());
+    dot(&a[..k], &b[..k])
 }
 
 /// Minimises `objective` from `u` within `lo <= u <= hi` (updated in place; `u` must lie
@@ -116,10 +165,12 @@ pub fn minimise(
     let n = u.len();
     let mut grad = vec![0.0; n];
     let mut f = objective.eval(u, &mut grad);
+    let mut live = Live::new(n);
+    live.grow(&grad);
+    // the pairs (s, y, 1 / s.y), compact over the live variables of their time
     let mut memory: Vec<(Vec<f64>, Vec<f64>, f64)> = Vec::with_capacity(MEMORY);
     let mut history = vec![f];
-    let (mut d, mut trial, mut trial_grad, mut step) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let mut free = vec![false; n];
+    let (mut trial, mut trial_grad) = (u.to_vec(), vec![0.0; n]);
     loop {
         if objective.done() {
             return Ok(Stop::Done);
@@ -131,9 +182,18 @@ pub fn minimise(
             return Ok(Stop::Deadline);
         }
         opts.cancelled()?;
-        for i in 0..n {
-            free[i] = !((u[i] <= lo[i] && grad[i] > 0.0) || (u[i] >= hi[i] && grad[i] < 0.0));
-        }
+        let order = live.order.clone();
+        let g = live.gather(&grad);
+        let free: Vec<bool> = order
+            .iter()
+            .zip(&g)
+            .map(|(&j, &gj)| {
+                let j = j as usize;
+                !((u[j] <= lo[j] && gj > 0.0) || (u[j] >= hi[j] && gj < 0.0))
+            })
+            .collect();
+        let mut d = vec![0.0; order.len()];
+        let mut step = vec![0.0; order.len()];
         let mut accepted = false;
         for attempt in 0..2 {
             if attempt == 1 {
@@ -142,37 +202,48 @@ pub fn minimise(
                 }
                 memory.clear();
             }
-            direction(&grad, &free, &memory, &mut d);
-            let slope = dot(&grad, &d);
+            direction(&g, &free, &memory, &mut d);
+            let slope = dot(&g, &d);
             if slope.is_nan() || slope >= 0.0 {
                 continue;
             }
             // weak Wolfe conditions by bracketing: sufficient decrease, and enough rise of
             // the slope along the step that the pair (s, y) carries curvature
             let (mut t, mut lower, mut upper) = (1.0, 0.0f64, f64::INFINITY);
+            let moved = |u: &[f64], trial: &mut [f64], step: &mut [f64], t: f64| {
+                for (p, &j) in order.iter().enumerate() {
+                    let j = j as usize;
+                    trial[j] = (u[j] + t * d[p]).clamp(lo[j], hi[j]);
+                    step[p] = trial[j] - u[j];
+                }
+            };
             for _ in 0..40 {
-                fill(&mut trial, |i| (u[i] + t * d[i]).clamp(lo[i], hi[i]));
-                fill(&mut step, |i| trial[i] - u[i]);
-                let decrease = dot(&grad, &step);
+                moved(u, &mut trial, &mut step, t);
+                let decrease = dot(&g, &step);
                 if decrease.is_nan() || decrease >= 0.0 {
                     break;
                 }
                 let f_trial = objective.eval(&trial, &mut trial_grad);
                 if f_trial.is_nan() || f_trial > f + ARMIJO * decrease {
                     upper = t;
-                } else if dot(&trial_grad, &step) < WOLFE * decrease && !objective.done() {
+                } else if dot(&live.gather(&trial_grad), &step) < WOLFE * decrease && !objective.done() {
                     lower = t;
                 } else {
-                    let y: Vec<f64> = trial_grad.iter().zip(&grad).map(|(a, b)| a - b).collect();
-                    let sy = dot(&step, &y);
+                    // the pair on the live variables, those the new gradient adds included
+                    let known = order.len();
+                    live.grow(&trial_grad);
+                    let y: Vec<f64> = live.order.iter().map(|&j| trial_grad[j as usize] - grad[j as usize]).collect();
+                    step.resize(live.order.len(), 0.0);
+                    let sy = dot_common(&step, &y);
                     if sy > 1e-12 * dot(&y, &y).sqrt() * dot(&step, &step).sqrt() {
                         if memory.len() == MEMORY {
                             memory.remove(0);
                         }
                         memory.push((step.clone(), y, 1.0 / sy));
                     }
+                    step.truncate(known);
                     u.copy_from_slice(&trial);
-                    grad.copy_from_slice(&trial_grad);
+                    std::mem::swap(&mut grad, &mut trial_grad);
                     f = f_trial;
                     accepted = true;
                     break;
@@ -182,9 +253,10 @@ pub fn minimise(
             if !accepted && lower > 0.0 {
                 // the decrease held but the slope did not rise enough: take the last point
                 // that decreased
-                fill(&mut trial, |i| (u[i] + lower * d[i]).clamp(lo[i], hi[i]));
+                moved(u, &mut trial, &mut step, lower);
                 f = objective.eval(&trial, &mut grad);
                 u.copy_from_slice(&trial);
+                live.grow(&grad);
                 memory.clear();
                 accepted = true;
             }
@@ -192,6 +264,8 @@ pub fn minimise(
                 break;
             }
         }
+        // the trial point is u again where it is not (a rejected trial)
+        trial.copy_from_slice(u);
         if !accepted {
             // the last evaluation was a rejected trial: evaluate the current point again so
             // that `done` and the caller see it
@@ -207,12 +281,14 @@ pub fn minimise(
     }
 }
 
-/// The L-BFGS direction `-H grad` on the `free` variables (zero on the others).
+/// The L-BFGS direction `-H grad` on the `free` variables (zero on the others), compact
+/// over the live variables (`grad`, `free`, `d`); the pairs of `memory` may be shorter
+/// (zero beyond their ends: variables that became live after them).
 fn direction(grad: &[f64], free: &[bool], memory: &[(Vec<f64>, Vec<f64>, f64)], d: &mut [f64]) {
     let mut q: Vec<f64> = grad.iter().zip(free).map(|(g, &f)| if f { *g } else { 0.0 }).collect();
     let mut alpha = vec![0.0; memory.len()];
     for (k, (s, y, rho)) in memory.iter().enumerate().rev() {
-        alpha[k] = rho * dot(s, &q);
+        alpha[k] = rho * dot_common(s, &q);
         q.iter_mut().zip(y).zip(free).for_each(|((x, yi), &f)| {
             if f {
                 *x -= alpha[k] * yi
@@ -222,7 +298,7 @@ fn direction(grad: &[f64], free: &[bool], memory: &[(Vec<f64>, Vec<f64>, f64)], 
     let gamma = memory.last().map_or(1.0, |(_, y, rho)| 1.0 / (rho * dot(y, y)));
     q.iter_mut().for_each(|x| *x *= gamma);
     for (k, (s, y, rho)) in memory.iter().enumerate() {
-        let beta = rho * dot(y, &q);
+        let beta = rho * dot_common(y, &q);
         q.iter_mut().zip(s).zip(free).for_each(|((x, si), &f)| {
             if f {
                 *x += (alpha[k] - beta) * si

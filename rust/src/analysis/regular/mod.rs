@@ -19,7 +19,7 @@ mod lbfgs;
 mod masses;
 mod search;
 
-pub use conditions::{conditions, Conditions};
+pub use conditions::{conditions, lifted_signs, Conditions, VERIFY_RTOL};
 pub use lbfgs::{Budget, Stop};
 pub use masses::{keep_masses, MassOutcome, MassTargets, PASS_ITERATIONS, ROUNDS};
 pub use search::{search, Outcome, Rows, Targets};
