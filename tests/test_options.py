@@ -109,6 +109,7 @@ EXEMPT = {
     ("tetlap.RegularWeights", "iterations"): "result",
     ("tetlap.RegularWeights", "lp_count"): "result",
     ("tetlap.RegularWeights", "mass_rounds"): "result",
+    ("tetlap.RegularWeights", "n_masses_nonpositive_plain"): "result",
     ("tetlap.Report", "negative_tol"): "result",
     ("tetlap.solve.SolveInfo", "residual"): "result",
 }
