@@ -18,7 +18,7 @@
 //! batched precise path.
 
 use super::exact::{Dd, DdLanes};
-use super::tet::batch::{Lanes, LANES};
+use super::tet::batch::{lanes, Lanes, LANES};
 
 /// The relative rounding bound of one double-double operation (with slack).
 const U: f64 = 1.0 / (1u128 << 100) as f64;
@@ -178,12 +178,6 @@ pub struct BdLanes {
     pub v: DdLanes,
     /// Their bounds.
     pub e: Lanes,
-}
-
-/// `f(lane)` for every lane.
-#[inline(always)]
-fn lanes(f: impl FnMut(usize) -> f64) -> Lanes {
-    std::array::from_fn(f)
 }
 
 impl BdLanes {

@@ -22,7 +22,7 @@
 //! elements flatter than a float evaluation can serve are evaluated in it from their exact
 //! edge vectors ([`exact_edges`]) and exact determinant ([`det3_dd`]).
 
-use crate::element::tet::batch::{Lanes, LANES};
+use crate::element::tet::batch::{lanes, Lanes, LANES};
 
 /// The largest accepted relative error bound of a floating-point determinant (`2^-43`,
 /// about `1.1e-13`); beyond it the determinant is computed exactly.
@@ -235,12 +235,6 @@ pub struct DdLanes {
     pub hi: Lanes,
     /// The trailing parts.
     pub lo: Lanes,
-}
-
-/// `f(lane)` for every lane.
-#[inline(always)]
-fn lanes(f: impl FnMut(usize) -> f64) -> Lanes {
-    std::array::from_fn(f)
 }
 
 /// [`two_sum`] per lane.

@@ -42,7 +42,7 @@ pub const MASS_FLOPS: u32 = 5;
 
 /// `f(lane)` for every lane.
 #[inline(always)]
-fn lanes(f: impl FnMut(usize) -> f64) -> Lanes {
+pub(crate) fn lanes(f: impl FnMut(usize) -> f64) -> Lanes {
     std::array::from_fn(f)
 }
 
