@@ -3,6 +3,7 @@ dual 0-forms; its Table 1 report through tetlap.check(..., kind="cell")."""
 
 from __future__ import annotations
 
+import warnings
 from fractions import Fraction
 
 import numpy as np
@@ -165,6 +166,26 @@ def test_check_of_a_wrong_cell_operator_says_what_is_wrong():
         tetlap.check(tetlap.laplacian(V, T, "dual"), V, T, kind="dual", weights=np.zeros(len(V)))
     with pytest.raises(tetlap.OptionError):
         tetlap.check(Lc, V, T, kind="cells")
+
+
+@pytest.mark.parametrize("far", [1e8, 1e300])
+def test_an_unused_vertex_changes_no_cell_report(far):
+    # linear precision was relative to the diameter of every vertex: one unused vertex at
+    # 1e8 turned a failing operator into a passing one, at 1e300 the residual became 0
+    V, T = tetlap.meshes.ball(300, seed=1)
+    Lc = tetlap.cell_laplacian(V, T).tolil()
+    Lc[0, 0] -= 1e-3
+    Lc[0, 1] += 1e-3            # a wrong weight, symmetric, rows still summing to zero
+    Lc[1, 0] += 1e-3
+    Lc[1, 1] -= 1e-3
+    Lc = Lc.tocsr()
+    plain = tetlap.check(Lc, V, T, kind="cell").to_dict()
+    assert plain["linear_precision_ok"] is False
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        far_vertex = tetlap.check(Lc, np.vstack([V, [far, far, far]]), T, kind="cell").to_dict()
+    assert {k: v for k, v in far_vertex.items() if k != "n_vertices"} == \
+        {k: v for k, v in plain.items() if k != "n_vertices"}
 
 
 def test_check_counts_folded_faces():

@@ -48,6 +48,24 @@ def assert_interior_faces(T, tets, opposite):
     assert keys == sorted(keys) and len(set(keys)) == len(keys)
 
 
+@pytest.mark.parametrize("scale", [1.0, 1e-150, 1e150])
+def test_degenerate_is_decided_per_tet_at_any_scale(scale):
+    # the tolerance was relative to the mean volume: a unit tet beside a large one was
+    # "degenerate", and info counted every tet of a cube with one needle at 1e20
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0], [10, 0, 0], [10 + 1e5, 0, 0],
+                  [10, 1e5, 0], [10, 0, 1e5], [0, 0, 1e-13]]) * scale
+    T = np.array([[0, 1, 2, 3], [4, 5, 6, 7], [0, 1, 2, 8], [0, 1, 4, 5]])  # last: flat
+    assert d.degenerate_tets(V, T).tolist() == [False, False, True, True]
+    assert d.degenerate_tets(V, T, rtol=0).tolist() == [False, False, False, True]
+    assert d.summary(V, T)["n_degenerate_tets"] == 1
+    Vc, Tc = tetlap.meshes.cube(3)
+    far = [int(np.argmin(np.abs(Vc - c).sum(axis=1)))            # a triangle of the top face
+           for c in ([0, 0, 1], [1, 0, 1], [0, 1, 1])]
+    Vn, Tn = np.vstack([Vc, [[0.2, 0.3, 1e20]]]), np.vstack([Tc, [[*far, len(Vc)]]])
+    assert not d.degenerate_tets(Vn * scale, Tn)[:-1].any()
+    assert d.summary(Vn * scale, Tn)["n_degenerate_tets"] == 0
+
+
 def test_orientation_and_degenerate():
     V, T = tetlap.meshes.cube(2)
     T2 = T.copy()

@@ -177,6 +177,17 @@ def test_bad_input_is_refused(kwargs, error):
         tetlap.harmonic(V, T, **args)
 
 
+@pytest.mark.parametrize("bad", [27, 2**40, -1])
+@pytest.mark.parametrize("k, laplacian", [(1, "auto"), (1, "primal"), (2, "dual")])
+def test_an_element_index_out_of_range_is_named(bad, k, laplacian):
+    # an index beyond the vertices was a bare IndexError (negative ones were named)
+    V, T = tetlap.meshes.cube(2)
+    T = T.copy()
+    T[3, 2] = bad
+    with pytest.raises(tetlap.IndexRangeError, match=f"element 3 refers to vertex {bad}"):
+        tetlap.harmonic(V, T, [0], [1.0], k=k, laplacian=laplacian)
+
+
 def test_inputs_are_not_modified():
     V, T = tetlap.meshes.cube(3)
     b = boundary(T, len(V))

@@ -137,7 +137,9 @@ def test_bad_options_are_refused(bad, error):
 @pytest.mark.parametrize("sources, error", [
     (-1, tetlap.IndexRangeError), (27, tetlap.IndexRangeError), ([], tetlap.ShapeError),
     ([[0, 1]], tetlap.ShapeError), ([0.0], tetlap.OptionError), (True, tetlap.OptionError),
-    ("0", TypeError), (np.array([2**63], dtype=np.uint64), tetlap.IndexRangeError),
+    ("0", tetlap.OptionError), (np.array([2**63], dtype=np.uint64), tetlap.IndexRangeError),
+    (2**70, tetlap.IndexRangeError), (-2**70, tetlap.IndexRangeError),
+    (0.5, tetlap.OptionError), (np.float64(1.0), tetlap.OptionError),
 ])
 def test_bad_sources_are_refused(sources, error):
     V, T = tetlap.meshes.cube(2)
@@ -185,3 +187,19 @@ def test_the_boundary_vertices_of_tets_are_the_diagnostics_ones():
     V, T = tetlap.meshes.ball(300, seed=1)
     assert np.array_equal(_boundary_vertices(T, len(V)),
                           tetlap.diagnostics.boundary_vertices(T, len(V)))
+
+
+@pytest.mark.parametrize("scale", [1e40, 1e-40, 1e150, 1e-140, 2.0**300])
+def test_the_distance_is_the_same_at_any_scale(scale):
+    # the heat step's powers of lengths left float64 from about 1e40: the distance was 0
+    # everywhere, with only a NumPy warning
+    V, T = tetlap.meshes.cube(3, jitter=0.1, seed=2)
+    for boundary in ("neumann", "dirichlet", "average"):
+        heat = HeatDistance(V, T, boundary=boundary)
+        scaled = HeatDistance(V * scale, T, boundary=boundary)
+        assert scaled.h == pytest.approx(heat.h * scale, rel=1e-14)
+        assert scaled.t == pytest.approx(heat.t * scale**2, rel=1e-14)
+        for s in (0, [5, 20]):
+            d = heat.distance(s)
+            assert d.max() > 0.5
+            np.testing.assert_allclose(scaled.distance(s) / scale, d, rtol=0, atol=1e-13)

@@ -349,6 +349,41 @@ def test_a_singular_matrix_is_refused_not_solved(solver):
 
 
 @pytest.mark.parametrize("solver", ["auto", "cholesky", "lu"])
+def test_a_singular_matrix_whose_pivots_look_fine_is_refused_by_its_answer(solver):
+    # the bunny's primal L (singular: constants) factorizes without a small pivot, and
+    # F.solve(ones) returned 6.4e15-sized answers with a relative residual of 1e-16
+    V, T = corpus_mesh("libigl_bunny.mesh")
+    L = tetlap.laplacian(V, T, "primal")
+    F = solve.factorize(L, solver=solver)
+    with pytest.raises(tetlap.SolveError, match="singular to working precision"):
+        F.solve(np.ones(len(V)))
+    with pytest.raises(tetlap.SolveError, match="singular to working precision"):
+        F.solve(np.column_stack([np.sin(np.arange(len(V))), np.ones(len(V))]))
+    # the same system made regular is solved, and its bound is the condition number's
+    A = -L + 1e-2 * tetlap.mass(V, T)
+    b = np.sin(np.arange(len(V)))
+    x = solve.factorize(A, solver=solver).solve(b)
+    assert 1 <= solve._checks.condition_bound(A, x, b) < 1 / solve.PIVOT_RTOL
+
+
+def test_the_condition_bound_is_a_lower_bound_of_the_scaled_condition_number():
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        n = 12
+        B = rng.normal(size=(n, n))
+        A = B @ B.T + 10.0 ** rng.uniform(-8, 0) * np.eye(n)
+        s = 10.0 ** rng.uniform(-20, 20, n)
+        A = s[:, None] * A * s[None, :]              # badly scaled: the bound is Jacobi-scaled
+        S = np.diag(1 / np.sqrt(np.diag(A)))
+        kappa = np.linalg.cond(S @ A @ S, np.inf)
+        b = rng.normal(size=(n, 2))
+        x = np.linalg.solve(A, b)
+        bound = solve._checks.condition_bound(sp.csr_array(A), x, b)
+        assert 0 < bound <= kappa * (1 + 1e-6), (bound, kappa)
+    assert solve._checks.condition_bound(sp.csr_array(np.eye(3)), np.zeros(3), np.zeros(3)) == 0
+
+
+@pytest.mark.parametrize("solver", ["auto", "cholesky", "lu"])
 def test_badly_scaled_but_well_conditioned_matrices_are_solved(solver):
     # the singularity test is relative to each row: a diagonal scaling changes nothing
     V, T = tetlap.meshes.cube(3, jitter=0.2, seed=1)

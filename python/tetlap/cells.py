@@ -188,7 +188,8 @@ def _report(L, V: np.ndarray, T: np.ndarray, M, *, weights, negative_tol: float,
     elif not off.any():
         notes.append("linear precision: every cell has a boundary face")
     elif finite:
-        diameter = float(np.linalg.norm(np.ptp(V, axis=0)))
+        # the diameter of the vertices in tets: an unused vertex changes no answer
+        diameter = float(np.linalg.norm(np.ptp(V[np.unique(T)], axis=0)))
         residual = float(np.abs(L @ g.centres)[off].max()) / (scale * diameter)
     if not finite:
         notes.append("L has NaN or Inf entries: only finiteness and locality are decided")

@@ -207,11 +207,42 @@ def orientation(V, T=None) -> np.ndarray:
 
 @_arrays.takes_mesh_object
 def degenerate_tets(V, T=None, rtol: float = 1e-12) -> np.ndarray:
-    """Boolean (m,): tets with ``|Vol| <= rtol * mean|Vol|`` (exactly flat ones included);
-    ``rtol`` a relative tolerance in [0, 1)."""
-    _options.tolerance(rtol, "rtol")
-    vol = np.abs(signed_volumes(V, T))
-    return vol <= rtol * vol.mean()
+    """Boolean (m,): the tets flat to within ``rtol`` of their own size, ``|Vol| <= rtol *
+    l^3 / (6 sqrt 2)`` with ``l`` the tet's longest edge (the right side is ``rtol`` times
+    the volume of the regular tet on that edge), so that a tet's answer depends on no other
+    tet and on no unit; the exactly flat tets (which the operators refuse, or skip with
+    ``degenerate="skip"``) always, and only they for ``rtol = 0``. ``rtol`` a relative
+    tolerance in [0, 1).
+
+    >>> import numpy as np, tetlap
+    >>> V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1e-13], [0, 0, 1.0]])
+    >>> tetlap.diagnostics.degenerate_tets(V, [[0, 1, 2, 3], [0, 1, 2, 4]]).tolist()
+    [True, False]
+    """
+    rtol = _options.tolerance(rtol, "rtol")
+    V, T = _geometry(V, T)
+    flat = _flat(_core.quality(V, T)[1])
+    if rtol == 0:
+        return flat
+    X = V[T]
+    E = X[:, 1:] - X[:, :1]                                     # (m, 3, d)
+    pairs = np.stack([E[:, 0], E[:, 1], E[:, 2], E[:, 1] - E[:, 0], E[:, 2] - E[:, 0],
+                      E[:, 2] - E[:, 1]], axis=1)
+    longest = np.abs(pairs).max(axis=(1, 2))
+    # each tet in a frame scaled by a power of two (exact) to edges of about 1: no
+    # overflow or underflow of the volume of a needle or a tiny tet
+    shift = np.frexp(np.where(longest > 0, longest, 1.0))[1]
+    E = np.ldexp(E, -shift[:, None, None])
+    l = np.linalg.norm(np.ldexp(pairs, -shift[:, None, None]), axis=2).max(axis=1)
+    gram = np.linalg.det(E @ E.transpose(0, 2, 1))              # (6 Vol)^2, scaled
+    six_vol = np.sqrt(np.maximum(gram, 0.0))
+    return flat | (six_vol <= rtol * l**3 / np.sqrt(2))
+
+
+def _flat(dihedral: np.ndarray) -> np.ndarray:
+    """The exactly flat tets, (m,) bool: those without dihedral angles (the core decides
+    flatness exactly, as the operators do)."""
+    return np.isnan(dihedral).any(axis=1)
 
 
 @_arrays.takes_mesh_object
@@ -295,7 +326,7 @@ def _summary(V, T, rtol: float = DELAUNAY_RTOL) -> tuple[dict, np.ndarray]:
     on_boundary = np.zeros(n, dtype=bool)
     on_boundary[T[boundary[:, 0][:, None], _FACES[boundary[:, 1]]].ravel()] = True
     referenced = _referenced(T, n)
-    flat = np.abs(volume) <= 1e-12 * np.abs(volume).mean()
+    flat = _flat(dihedral)
     result = {
         "n_vertices": n,
         "n_tets": len(T),

@@ -233,6 +233,7 @@ def harmonic(V, T=None, fixed=None, values=None, *, k: int = 1, laplacian="auto"
     V, T = _arrays.mesh(V, T)
     V, T = _arrays.points(V), _arrays.elements(T)
     n = len(V)
+    _arrays.in_range(T, n, "element")
     idx, vals = _fixed(fixed, values, n)
     fixed_mask = np.zeros(n, dtype=bool)
     fixed_mask[idx] = True

@@ -34,6 +34,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from . import _arrays, _core, _options, assembly, calculus
+from ._float_range import unit_scale
 from .solve import factorize
 from .errors import DegenerateElementError, IndexRangeError, OptionError, ShapeError
 
@@ -46,10 +47,13 @@ BOUNDARY_CONDITIONS = ("neumann", "dirichlet", "average")
 def _sources(sources, n: int, used: np.ndarray) -> np.ndarray:
     """``sources`` (a vertex index or a 1-D array-like of them) as sorted unique int64
     indices of vertices of the mesh."""
-    if isinstance(sources, bool):
+    if isinstance(sources, bool) or (np.isscalar(sources)
+                                     and not isinstance(sources, numbers.Integral)):
         raise OptionError(f"sources must be a vertex index or integer vertex indices, got "
                           f"{sources!r}")
     if isinstance(sources, numbers.Integral):
+        if not 0 <= sources < n:        # before int64: 2**70 is not a vertex either
+            raise _arrays.not_a_vertex("sources holds", int(sources), n)
         s = np.array([int(sources)], dtype=np.int64)
     else:
         arr = _arrays._as_array(sources, "sources")
@@ -132,7 +136,9 @@ class HeatDistance:
     Distances are ``inf`` on the components of the mesh without a source and on vertices
     in no element (neither is ever NaN); vertices only in skipped degenerate elements count
     as in no element. An element where ``grad u`` is exactly zero (``u``
-    constant on it, or skipped as degenerate) gets ``X = 0``.
+    constant on it, or skipped as degenerate) gets ``X = 0``. A mesh whose bounding box
+    is beyond ``2^-64 .. 2^64`` is computed in a copy scaled by a power of two (exact), so
+    that the distance is the same at any scale (it was 0 everywhere from about 1e40).
 
     Examples
     --------
@@ -161,6 +167,15 @@ class HeatDistance:
         V, T = _arrays.mesh(V, T)
         V, T = _arrays.points(V), _arrays.elements(T)
         n = len(V)
+        used, _ = _arrays.used_vertices(V, T)
+        # a mesh far from unit size is computed in a copy scaled by a power of two (exact;
+        # the heat step's powers of lengths left float64 from about 1e40): distances,
+        # h and t are given back in the caller's units
+        self._scale = unit_scale(V[used])
+        if self._scale != 1.0:
+            V = V / self._scale
+            if weights is not None:
+                weights = _arrays.vertex_weights(weights, n) / self._scale**2
         L, M = assembly.operators(V, T, laplacian, mass, boundary=dual_boundary,
                                   weights=weights, degenerate=degenerate, threads=threads)
         g, vol = calculus.element_gradients(V, T, degenerate=degenerate, threads=threads)
@@ -176,7 +191,9 @@ class HeatDistance:
         self._used = np.zeros(n, dtype=bool)
         self._used[live.ravel()] = True
         edges = _core.edges(live, n, options={"threads": threads})
-        self.h = float(np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1).mean())
+        h = float(np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1).mean())
+        t_work = float(t) / self._scale**2 if t is not None else h ** 2
+        self.h = h * self._scale
         self.t = float(t) if t is not None else self.h ** 2
         self.boundary = boundary
         self.n = n
@@ -184,10 +201,10 @@ class HeatDistance:
             sp.coo_array((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)),
             directed=False)
         L, M = sp.csr_array(L), sp.csr_array(M)
-        if not math.isfinite(self.t * float(np.abs(L.data).max(initial=0.0))):
+        if not math.isfinite(t_work * float(np.abs(L.data).max(initial=0.0))):
             raise OptionError(f"t = {self.t:g} is too large for this mesh: t L leaves the "
                               "float64 range")
-        A = sp.csr_array(M - self.t * L)
+        A = sp.csr_array(M - t_work * L)
         used = np.flatnonzero(self._used)
         self._factors = 0
         self._order = None    # vertices in the elimination order of the first factorization
@@ -282,7 +299,7 @@ class HeatDistance:
         for label in np.unique(self._labels[s]):
             component = (self._labels == label) & self._used
             d[component] = phi[component] - phi[s[self._labels[s] == label]].min()
-        return d
+        return d * self._scale if self._scale != 1.0 else d
 
 
 @_arrays.takes_mesh_object

@@ -11,6 +11,14 @@ from ..errors import DtypeError, NonFiniteError, OptionError, ShapeError, SolveE
 
 #: Largest relative residual ``|A x - b|_inf / (|A|_inf |x|_inf + |b|_inf)`` accepted.
 RESIDUAL_TOL = 1e-8
+#: A matrix is singular to working precision when its Jacobi-scaled condition number is
+#: proved to be at least ``1 / PIVOT_RTOL`` (7e13), where an answer may be wrong in its
+#: leading digits although its residual is small (the pure Neumann ``-L``, singular, gave
+#: answers of 1e17 that passed the residual check). Two proofs: a pivot of a factorization
+#: at most this fraction of its row's diagonal entry (the ratio does not change under a
+#: diagonal scaling; ``Factor``), and an answer ``x`` much larger than its data
+#: (:func:`condition_bound`, every solve).
+PIVOT_RTOL = 64 * float(np.finfo(np.float64).eps)
 #: The solvers of every function of :mod:`tetlap.solve`.
 SOLVERS = ("auto", "amg", "cholesky", "lu")
 
@@ -128,7 +136,35 @@ def accept(A, x, b, what: str, info, norm: float | None = None) -> np.ndarray:
     if res > RESIDUAL_TOL:
         raise SolveError(f"the {what} is singular or too ill-conditioned: relative residual "
                          f"{res:.1e} (tolerance {RESIDUAL_TOL:g})")
+    with info.phase("check"), np.errstate(over="ignore"):
+        kappa = condition_bound(A, x, b)
+    if kappa * PIVOT_RTOL >= 1:
+        raise SolveError(f"the {what} is singular to working precision: the answer's size "
+                         f"proves a (Jacobi-scaled) condition number of at least {kappa:.1e}, "
+                         f"where an answer may be wrong in its leading digits (limit "
+                         f"{1 / PIVOT_RTOL:.1e})")
     return x
+
+
+def condition_bound(A, x: np.ndarray, b: np.ndarray) -> float:
+    """A lower bound of the condition number of ``S A S`` (``S = diag(|a_ii|^-1/2)``, 1
+    where ``a_ii = 0``) proved by ``x`` (n,) or (n, k), with ``A x ~ b``: ``|S A S|_inf
+    |S^-1 x|_inf / |S b|_inf``, since ``S^-1 x`` solves ``(S A S) y = S b`` (the largest
+    over the columns; 0 for columns with ``b = 0``). Large only when ``x`` is much larger
+    than ``b`` in the matrix's own scaling: a direction near the null space."""
+    if not len(b):
+        return 0.0
+    d = np.abs(A.diagonal())
+    s = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
+    A = sp.csr_array(A)
+    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+    scaled = np.zeros(A.shape[0])
+    np.add.at(scaled, rows, np.abs(A.data) * s[rows] * s[A.indices])
+    x, b = x.reshape(len(b), -1), b.reshape(len(b), -1)
+    top = scaled.max() * np.abs(x / s[:, None]).max(axis=0)
+    bottom = np.abs(b * s[:, None]).max(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return float(np.max(np.where(bottom > 0, top / np.where(bottom > 0, bottom, 1.0), 0.0)))
 
 
 def extended_residual(A: sp.csr_array, x: np.ndarray, b: np.ndarray) -> np.ndarray:

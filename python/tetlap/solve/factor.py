@@ -38,15 +38,11 @@ __all__ = ["factorize", "Factor", "ORDERINGS", "nested_dissection"]
 ORDERINGS = ("auto", "nd", "amd")
 
 
-#: A pivot at most this fraction of its row's diagonal entry makes a factorization singular
-#: to working precision (``Factor.solve`` refuses it; the ratio does not change under a
-#: diagonal scaling): for a positive definite matrix, a Jacobi-scaled condition number of at
-#: least ``1 / PIVOT_RTOL`` (7e13), where an answer may be wrong in its leading digits
-#: although its residual is small (the pure Neumann ``-L``, singular, gave answers of 1e17
-#: that passed the residual check). An ``LDL^T`` (no pivoting) with such a pivot hands over
-#: to SuperLU, whose pivots are measured against ``sqrt(|a_ii a_jj|)`` of their row ``i``
-#: and column ``j``.
-PIVOT_RTOL = 64 * float(np.finfo(np.float64).eps)
+#: A pivot at most :data:`PIVOT_RTOL` of its row's diagonal entry makes a factorization
+#: singular to working precision (``Factor.solve`` refuses it). An ``LDL^T`` (no pivoting)
+#: with such a pivot hands over to SuperLU, whose pivots are measured against
+#: ``sqrt(|a_ii a_jj|)`` of their row ``i`` and column ``j``.
+PIVOT_RTOL = _checks.PIVOT_RTOL
 
 
 #: From this many rows on, METIS runs in a child process (0.6 s to start) so that Ctrl-C
