@@ -348,6 +348,19 @@ def test_a_singular_matrix_is_refused_not_solved(solver):
     assert np.isfinite(F.solve(b[:L.shape[0]])).all()
 
 
+def test_lobpcg_on_an_indefinite_dual_says_so_in_public_terms_and_quietly():
+    # the error's class was the private _Missed, after a dozen of LOBPCG's UserWarnings
+    import warnings
+
+    V, T = corpus_mesh("libigl_octopus_low.mesh")
+    L, M = tetlap.operators(V, T, "dual", "mixed")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(tetlap.SolveError, match="could not be certified") as e:
+            solve.eigs(L, M, k=5, solver="amg")
+    assert type(e.value) is tetlap.SolveError
+
+
 @pytest.mark.parametrize("solver", ["auto", "cholesky", "lu"])
 def test_a_singular_matrix_whose_pivots_look_fine_is_refused_by_its_answer(solver):
     # the bunny's primal L (singular: constants) factorizes without a small pivot, and
