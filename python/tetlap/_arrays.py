@@ -227,9 +227,10 @@ def not_a_vertex(what: str, index: int, n: int) -> IndexRangeError:
     return IndexRangeError(f"{what} {index}, not a vertex: {known}", index=int(index))
 
 
-def vertex_mask(given, n: int, name: str) -> np.ndarray:
+def vertex_mask(given, n: int, name: str, once: bool = False) -> np.ndarray:
     """``given``, a boolean mask ``(n,)`` or integer vertex indices (``[]``: none), as a new
-    ``(n,)`` bool mask."""
+    ``(n,)`` bool mask; ``once``: an index given twice is an OptionError (where values
+    follow the indices one by one)."""
     arr = _as_array(given, name)
     if arr.dtype == bool:
         if arr.shape != (n,):
@@ -245,6 +246,11 @@ def vertex_mask(given, n: int, name: str) -> np.ndarray:
     bad = (flat < 0) | (flat >= n)
     if bad.any():
         raise not_a_vertex(f"`{name}` holds", int(flat[np.argmax(bad)]), n)
+    if once:
+        unique, counts = np.unique(flat, return_counts=True)
+        if (counts > 1).any():
+            raise OptionError(f"`{name}` holds vertex {int(unique[np.argmax(counts > 1)])} "
+                              "twice: give each vertex once")
     out[flat] = True
     return out
 

@@ -41,7 +41,7 @@ def rtol(value, name: str = "rtol") -> float:
 
 
 def mask(fixed, n: int) -> np.ndarray:
-    return _arrays.vertex_mask(fixed, n, "fixed")
+    return _arrays.vertex_mask(fixed, n, "fixed", once=True)   # values may follow them
 
 
 def values(v, fixed: np.ndarray) -> np.ndarray:
