@@ -16,8 +16,8 @@ from typing_extensions import Self
 __all__ = ["assemble", "check_options", "vjp", "Mesh", "MAX_THREADS", "DELAUNAY_RTOL",
            "MAX_GROUP", "faces", "duplicates", "edges", "quality", "non_delaunay",
            "check_operator", "negative_semidefinite", "element_certificate",
-           "regular_conditions", "regular_search", "regular_masses", "gradients",
-           "Factor", "dual_centres"]
+           "regular_conditions", "regular_signs", "regular_search", "regular_masses",
+           "gradients", "Factor", "dual_centres"]
 
 MAX_THREADS: int
 DELAUNAY_RTOL: float
