@@ -24,7 +24,7 @@
 //! Every face is computed in its own frame: translated to `x_q` and scaled by the power of
 //! two that brings the largest difference into `[1/2, 1)` (exact), so that coordinates
 //! near the float range neither overflow nor underflow. A row whose rounding errors there
-//! may exceed `2^-30` (bounded from the permanents of its determinants: a needle's base
+//! may exceed `2^-20` (bounded from the permanents of its determinants: a needle's base
 //! seen from its far apex, a sliver) is computed in exact rational arithmetic instead, so
 //! that only an exactly flat tet has no row, and only a value beyond the `f64` range is
 //! infinite, as everywhere in the library.
@@ -73,10 +73,12 @@ type Row = ([u32; 5], f64, [f64; 5], bool);
 type Viewed = (Row, bool);
 
 /// The accuracy a row computed in `f64` must be proved to have, else it is computed
-/// exactly: `2^-30` (about `1e-9`) relative for the face's size and heights and absolute on
+/// exactly: `2^-20` (about `1e-6`) relative for the face's size and heights and absolute on
 /// the margin scale (the margin at `w = 0` and each weight's term for weights of the
-/// frame's squared size).
-const ROW_TOL: f64 = 1.0 / (1u64 << 30) as f64;
+/// frame's squared size). The search needs no more (the answers are checked on their own),
+/// and the bounds are pessimistic: slivers keep their `f64` rows (accurate to about
+/// `1e-12` on the corpus), needles beyond an aspect of about `1e5` take the exact path.
+const ROW_TOL: f64 = 1.0 / (1u64 << 20) as f64;
 
 /// The smallest magnitude the `f64` path accepts for the heights, the face's size and the
 /// normalisation, far enough above the subnormals that no product of the row underflows.
@@ -487,13 +489,15 @@ mod tests {
             let apex = DVec3::new(0.3, 0.3, h);
             let ((_, g, a, ok), folded) = row([0, 1, 2, 3], base, 3, 4, apex);
             let expected = ((h - 0.42 / h) / 2.0 + 0.29) * 3f64.sqrt() / 2.0;
-            assert!(ok && !folded && (g / expected - 1.0).abs() < 1e-14, "{h}: {g} {expected}");
+            // float64 within its bounds (1e-12 here); beyond them exact
+            let tol = if h < 1e6 { 1e-12 } else { 1e-14 };
+            assert!(ok && !folded && (g / expected - 1.0).abs() < tol, "{h}: {g} {expected}");
             // d margin / d w_apex = -1 / (2 h) over the RMS edge
-            assert!((a[4] * h * 4.0 / 3f64.sqrt() + 1.0).abs() < 1e-14, "{h}: {a:?}");
+            assert!((a[4] * h * 4.0 / 3f64.sqrt() + 1.0).abs() < tol, "{h}: {a:?}");
             // seen from the needle, against the apex below
             let needle = [DVec3::ZERO, DVec3::X, DVec3::Y, apex];
             let ((_, g, _, ok), _) = row([0, 1, 2, 4], needle, 3, 3, base[3]);
-            assert!(ok && (g / expected - 1.0).abs() < 1e-14, "{h}: {g} {expected}");
+            assert!(ok && (g / expected - 1.0).abs() < tol, "{h}: {g} {expected}");
         }
     }
 
