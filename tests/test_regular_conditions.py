@@ -74,7 +74,7 @@ def test_bad_input():
         face_margins(V, T, np.full(len(V), np.nan))
     with pytest.raises(tetlap.ShapeError):
         face_margins(np.hstack([V, V[:, :1]]), T)
-    flat = np.vstack([V, (V[T[0, 0]] + V[T[0, 1]] + V[T[0, 2]]) / 3])
+    flat = np.vstack([V, V[T[0, 0]]])         # exactly flat (a corner's copy)
     with pytest.raises(tetlap.DegenerateElementError, match=f"tet {len(T)} is flat") as e:
         face_margins(flat, np.vstack([T, [[T[0, 0], T[0, 1], T[0, 2], len(V)]]]))
     assert e.value.element == len(T)

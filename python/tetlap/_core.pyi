@@ -118,7 +118,8 @@ def element_certificate(cells: _Cells, n: int, weights: _F64, tol: _F64, *,
 # seconds or None), seconds an optional wall-clock limit. regular_conditions returns a dict: "interior" (f, 4),
 # "boundary" (b, 2), "nonmanifold" (k, 3) int64 (see faces); "vertices" (c, 5) int64, "g0"
 # (c,), "coefficients" (c, 5), "face" (c,) int64 (the margin rows); "folded" (f,) bool;
-# "flat" (k,) int64 (faces with a tet flat to rounding).
+# "flat" (k,) int64 (faces with an exactly flat tet), "beyond_range" (k,) int64 (faces with
+# a value beyond the float64 range).
 _Rows = tuple[_I64, _F64, _F64]
 _Targets = tuple[_F64, _F64, _F64, _F64]
 _Stop = Literal["done", "stalled", "iterations", "deadline"]

@@ -276,9 +276,10 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
     Raises
     ------
     tetlap.ShapeError, DtypeError, IndexRangeError, NonFiniteError, RepeatedVertexError,
-    EmptyMeshError (bad input, as for the operators); DegenerateElementError (a tet flat to
-    double precision next to an interior face: it has no power centre); OptionError (a bad
-    option).
+    EmptyMeshError (bad input, as for the operators); DegenerateElementError (an exactly
+    flat tet next to an interior face: it has no power centre; needles and slivers are
+    computed exactly); NonFiniteError (also: a face's margin row beyond the float64 range);
+    OptionError (a bad option).
 
     Examples
     --------
@@ -416,8 +417,11 @@ def _find(V, T, cond: Conditions, settings: Settings, budget: Budget, d: Decisio
     if d.certificate is not None:       # not regular: the plain dual is what is left
         return
     d.w = u * scale
-    # w = 0 (a search stopped before its first step): the check of w = 0 is done already
-    d.final = (d.plain if not d.w.any()
+    # w = 0 (a search stopped before its first step): the check of w = 0 is done already,
+    # but in float64 only; the faces it left undecided are decided exactly when the search
+    # reached its aims there (few: the rows put them at or above their aims)
+    undecided = not d.w.any() and (d.plain.sign == 0).any() and d.outcome.status == "reached"
+    d.final = (d.plain if not d.w.any() and not undecided
                else verify.check_margins(V, T, cond.interior, d.w, threads=settings.threads))
     if d.outcome.status != "reached" and len(d.final.failed) > len(d.plain.failed):
         d.notes.append("the search's weights leave more faces not strictly regular than "

@@ -22,6 +22,7 @@ import numpy as np
 
 from .. import _arrays, _core
 from ..errors import DegenerateElementError, NonFiniteError, ShapeError
+from .verify import exact_orientation
 
 __all__ = ["Conditions", "face_margins"]
 
@@ -82,23 +83,28 @@ class Conditions:
     def of(cls, V: np.ndarray, T: np.ndarray, threads: int | None = None) -> Conditions:
         """The conditions of a validated mesh (``V`` (n, 3) float64, ``T`` (m, 4) int64).
 
-        Raises :class:`tetlap.DegenerateElementError` naming the first interior face with a
-        tet that is flat to rounding (it has no power centre)."""
+        Raises :class:`tetlap.DegenerateElementError` naming the first interior face with an
+        exactly flat tet (it has no power centre; a needle or a sliver is computed exactly
+        instead), :class:`tetlap.NonFiniteError` the first whose margin row leaves the
+        float64 range."""
         c = _core.regular_conditions(V, T, options={"threads": threads})
         interior = c["interior"]
         triangles = _face_vertices(T, interior[:, 0], interior[:, 1])
         if len(c["flat"]):
             f = int(c["flat"][0])
             pair = [int(interior[f, 0]), int(interior[f, 2])]
-            X = V[T[pair]]
-            E = X[:, 1:] - X[:, :1]
-            relative = np.abs(np.linalg.det(E)) / np.einsum("tij,tij->t", E, E) ** 1.5
-            flat = pair[int(np.argmin(relative))]
+            flat = next(t for t in pair if exact_orientation(V, T[t]) == 0)
             raise DegenerateElementError(
-                f"tet {flat} is flat to double precision: the interior face "
+                f"tet {flat} is flat (zero volume, exactly): the interior face "
                 f"{triangles[f].tolist()} between tets {pair[0]} and {pair[1]} has no power "
                 "centre on that side, and regularity needs tets of non-zero volume",
                 element=flat)
+        if len(c["beyond_range"]):
+            f = int(c["beyond_range"][0])
+            raise NonFiniteError(
+                f"the margin of the interior face {triangles[f].tolist()} between tets "
+                f"{int(interior[f, 0])} and {int(interior[f, 2])} or its derivatives leave the "
+                "float64 range (a needle or sliver beyond it): rescale or repair the mesh")
         on_boundary = np.zeros(len(V), dtype=bool)
         boundary = c["boundary"]
         on_boundary[_face_vertices(T, boundary[:, 0], boundary[:, 1]).ravel()] = True

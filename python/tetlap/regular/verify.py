@@ -43,7 +43,7 @@ import numpy as np
 from .. import _core
 
 __all__ = ["VERIFY_RTOL", "MarginCheck", "check_margins", "check_certificate", "check_folded",
-           "check_nonmanifold"]
+           "check_nonmanifold", "exact_orientation"]
 
 #: Relative tolerance of the float64 test of a lifted determinant against its permanent;
 #: within it, exact arithmetic decides (module docstring; the core's
@@ -245,20 +245,24 @@ def check_certificate(V, T, interior, faces, hint, vertices, coefficients
     return CertificateCheck(multipliers=y / y.sum())
 
 
+def exact_orientation(V, tet) -> int:
+    """The exact sign (-1, 0, 1) of ``det[x1 - x0, x2 - x0, x3 - x0]`` of the four vertices
+    ``tet`` of ``V`` (n, 3) float64: 0 only for an exactly flat tet."""
+    X = [_exact_vector(V[int(v)]) for v in tet]
+    e = [[a - b for a, b in zip(X[k], X[0])] for k in (1, 2, 3)]
+    d = (e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1])
+         - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0])
+         + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]))
+    return (d > 0) - (d < 0)
+
+
 def check_folded(V, T, interior, faces) -> bool:
     """Whether every face of ``faces`` (indices into ``interior``) has both opposite
     vertices strictly on the same side of its plane (exact orientation signs)."""
     for f in faces:
         t1, c1, t2, c2 = (int(x) for x in interior[f])
         tri = [int(v) for k, v in enumerate(T[t1]) if k != c1]
-        sides = []
-        for apex in (int(T[t1, c1]), int(T[t2, c2])):
-            X = [_exact_vector(V[v]) for v in tri + [apex]]
-            e = [[a - b for a, b in zip(X[k], X[0])] for k in (1, 2, 3)]
-            d = (e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1])
-                 - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0])
-                 + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]))
-            sides.append((d > 0) - (d < 0))
+        sides = [exact_orientation(V, tri + [apex]) for apex in (int(T[t1, c1]), int(T[t2, c2]))]
         if not (sides[0] == sides[1] != 0):
             return False
     return True

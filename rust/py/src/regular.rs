@@ -136,7 +136,8 @@ fn stop_name(stop: Stop) -> &'static str {
 /// The conditions of a tet mesh in R^3 and its face table, as a dict: `interior` (f, 4),
 /// `boundary` (b, 2), `nonmanifold` (k, 3) (-1 unused) int64 (see `faces`); `vertices`
 /// (c, 5) int64, `g0` (c,), `coefficients` (c, 5), `face` (c,) int64; `folded` (f,) bool;
-/// `flat` (k,) int64 (faces with a tet flat to rounding).
+/// `flat` (k,) int64 (faces with an exactly flat tet), `beyond_range` (k,) int64 (faces with
+/// a value beyond the float64 range).
 #[pyfunction]
 #[pyo3(signature = (points, cells, *, options=None))]
 pub fn regular_conditions<'py>(
@@ -166,6 +167,7 @@ pub fn regular_conditions<'py>(
     d.set_item("face", PyArray1::from_iter(py, c.face.iter().map(|&f| f as i64)))?;
     d.set_item("folded", PyArray1::from_vec(py, c.folded))?;
     d.set_item("flat", PyArray1::from_iter(py, c.flat.iter().map(|&f| f as i64)))?;
+    d.set_item("beyond_range", PyArray1::from_iter(py, c.beyond_range.iter().map(|&f| f as i64)))?;
     Ok(d)
 }
 

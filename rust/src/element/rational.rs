@@ -229,8 +229,8 @@ fn shr_raw(a: &[u64], bits: u64) -> Vec<u64> {
 }
 
 /// `x 2^k` rounded once when the result is normal (twice at most below: subnormal values
-/// are only ever compared with normal ones of their kind).
-fn ldexp(x: f64, k: i64) -> f64 {
+/// are only ever compared with normal ones of their kind); `inf` beyond the range.
+pub fn ldexp(x: f64, k: i64) -> f64 {
     let step = |x: f64, k: i64| x * f64::from_bits(((k + 1023) as u64) << 52);
     let mut x = x;
     let mut k = k.clamp(-3000, 3000);
@@ -280,15 +280,21 @@ impl Fraction {
 
     /// The value rounded to `f64` (within an ulp; `inf` beyond the range, NaN if undefined).
     fn to_f64(&self) -> f64 {
+        let (m, k) = self.split();
+        ldexp(m, k)
+    }
+
+    /// `(m, k)`: the value is `m 2^k` with `m` rounded to `f64` (within an ulp, `1/2 < |m|
+    /// < 2`; `(0, 0)` for zero, NaN if undefined).
+    fn split(&self) -> (f64, i64) {
         let Some((d, kd)) = self.den.leading() else {
-            return f64::NAN;
+            return (f64::NAN, 0);
         };
         let Some((n, kn)) = self.num.leading() else {
-            return 0.0;
+            return (0.0, 0);
         };
         let q = (n / d).to_f64();
-        let v = ldexp(q, kn - kd);
-        if self.num.neg { -v } else { v }
+        (if self.num.neg { -q } else { q }, kn - kd)
     }
 }
 
@@ -332,6 +338,13 @@ impl Exact {
     /// the result of a division by zero.
     pub fn to_f64(self) -> f64 {
         self.read(Fraction::to_f64)
+    }
+
+    /// `(m, k)` with the value `m 2^k`, `m` rounded to `f64` (within an ulp, `1/2 < |m| <
+    /// 2`; `(0, 0)` for zero): the value in any range, for products of values that would
+    /// leave the `f64` range on their own ([`ldexp`] rounds the product once).
+    pub fn split(self) -> (f64, i64) {
+        self.read(Fraction::split)
     }
 }
 

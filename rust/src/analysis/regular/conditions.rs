@@ -23,8 +23,14 @@
 //!
 //! Every face is computed in its own frame: translated to `x_q` and scaled by the power of
 //! two that brings the largest difference into `[1/2, 1)` (exact), so that coordinates
-//! near the float range neither overflow nor underflow.
+//! near the float range neither overflow nor underflow. A row whose rounding errors there
+//! may exceed `2^-20` (bounded from the permanents of its determinants: a needle's base
+//! seen from its far apex, a sliver) is computed in exact rational arithmetic instead, so
+//! that only an exactly flat tet has no row, and only a value beyond the `f64` range is
+//! infinite, as everywhere in the library.
 
+use crate::element::exact::DET_ERROR;
+use crate::element::rational::{exactly, ldexp, Exact};
 use crate::element::tet::FACES;
 use crate::error::{Error, Result};
 use crate::mesh::TetView;
@@ -52,16 +58,31 @@ pub struct Conditions {
     pub n_faces: usize,
     /// Per interior face: both tets lie on the same side of it.
     pub folded: Vec<bool>,
-    /// Interior faces whose margin is undefined in double precision (a tet flat to
-    /// rounding on one side: no power centre), ascending; their rows hold NaN.
+    /// Interior faces with an exactly flat tet on one side (no power centre: the margin is
+    /// undefined), ascending; their rows hold NaN.
     pub flat: Vec<u32>,
+    /// Interior faces with a value of a row beyond the `f64` range (infinite), ascending.
+    pub beyond_range: Vec<u32>,
 }
 
-/// One row: `(vertices, g0, coefficients, norm > 0 and finite)`.
+/// One row: `(vertices, g0, coefficients, defined)`; not defined: a tet of the face is
+/// exactly flat (no power centre), its values NaN.
 type Row = ([u32; 5], f64, [f64; 5], bool);
 
 /// A row and whether the face is folded (both tets strictly on one side of it).
 type Viewed = (Row, bool);
+
+/// The accuracy a row computed in `f64` must be proved to have, else it is computed
+/// exactly: `2^-20` (about `1e-6`) relative for the face's size and heights and absolute on
+/// the margin scale (the margin at `w = 0` and each weight's term for weights of the
+/// frame's squared size). The search needs no more (the answers are checked on their own),
+/// and the bounds are pessimistic: slivers keep their `f64` rows (accurate to about
+/// `1e-12` on the corpus), needles beyond an aspect of about `1e5` take the exact path.
+const ROW_TOL: f64 = 1.0 / (1u64 << 20) as f64;
+
+/// The smallest magnitude the `f64` path accepts for the heights, the face's size and the
+/// normalisation, far enough above the subnormals that no product of the row underflows.
+const ROW_TINY: f64 = f64::from_bits(((1023 - 900) as u64) << 52);
 
 /// `2^-k` with `max_abs * 2^-k` in `[1/2, 1)`, or 1 for zero or non-normal `max_abs`.
 fn inverse_scale(max_abs: f64) -> f64 {
@@ -73,9 +94,24 @@ fn inverse_scale(max_abs: f64) -> f64 {
     2f64.powi(-k)
 }
 
+/// The absolute values of the components of `a`, plus those of `b`.
+fn spread(a: DVec3, b: DVec3) -> DVec3 {
+    a.abs() + b.abs()
+}
+
 /// The row of the face opposite corner `c` of `tet` (corner points `x`), seen from `tet`,
-/// with `q` the opposite vertex of the other tet (point `xq`).
+/// with `q` the opposite vertex of the other tet (point `xq`): in `f64` when its error
+/// bounds prove it accurate to [`ROW_TOL`], else exactly ([`exact_row`]), so that a needle
+/// or a sliver gets its true row and only an exactly flat tet none.
 fn row(tet: [u32; 4], x: [DVec3; 4], c: usize, q: u32, xq: DVec3) -> Viewed {
+    float_row(tet, x, c, q, xq).unwrap_or_else(|| exact_row(tet, x, c, q, xq))
+}
+
+/// [`row`] in `f64`, in the frame of `q` scaled to the largest difference; None when its
+/// rounding errors (bounded from the permanents of its determinants) may exceed
+/// [`ROW_TOL`]: the differences `x_i - x_q` are rounded, so a face far from `q` (a needle's
+/// base seen from its apex) loses its shape to them.
+fn float_row(tet: [u32; 4], x: [DVec3; 4], c: usize, q: u32, xq: DVec3) -> Option<Viewed> {
     let diff = x.map(|xi| xi - xq);
     let max_abs = diff.iter().fold(0.0f64, |m, d| m.max(d.abs().max_element()));
     let inv = inverse_scale(max_abs);
@@ -83,30 +119,98 @@ fn row(tet: [u32; 4], x: [DVec3; 4], c: usize, q: u32, xq: DVec3) -> Viewed {
     let s = e.map(|v| v.length_squared());
     let (x23, x01) = (e[2].cross(e[3]), e[0].cross(e[1]));
     let cof = [-e[1].dot(x23), e[0].dot(x23), -e[3].dot(x01), e[2].dot(x01)];
+    let a = e.map(|v| v.to_array());
+    let perm = [det_perm(a[1], a[2], a[3]).1, det_perm(a[0], a[2], a[3]).1, det_perm(a[0], a[1], a[3]).1, det_perm(a[0], a[1], a[2]).1];
     // the face and the heights of p (corner c) and of q over it, in the same frame
     let f = FACES[c].map(|k| e[k]);
     let normal = (f[1] - f[0]).cross(f[2] - f[0]);
     let area2 = normal.length();
-    let hp = (e[c] - f[0]).dot(normal) / area2;
-    let hq = (-f[0]).dot(normal) / area2;
+    let (op, oq) = ((e[c] - f[0]).dot(normal), (-f[0]).dot(normal));
+    let hp = op / area2;
+    let hq = oq / area2;
     let rms = (((f[1] - f[0]).length_squared() + (f[2] - f[1]).length_squared() + (f[0] - f[2]).length_squared())
         / 3.0)
         .sqrt();
     let norm = 2.0 * area2 * hp.abs() * hq.abs() * rms;
-    let orient = (e[1] - e[0]).dot((e[2] - e[0]).cross(e[3] - e[0])).signum();
-    let ok = norm > 0.0 && norm.is_finite();
+    // the tet's orientation determinant is minus the sum of the cofactors
+    let sum = cof[0] + cof[1] + cof[2] + cof[3];
+    let orient = -sum.signum();
     let k = orient / norm;
+    // error bounds: every difference of two frame points is within 2 eps of the sum of
+    // their absolute values, the cross product within 8 eps of the permanent of those sums
+    let eps = f64::EPSILON / 2.0;
+    let (u1, u2, u3) = (spread(f[1], f[0]), spread(f[2], f[0]), spread(e[c], f[0]));
+    let span = DVec3::new(u1.y * u2.z + u1.z * u2.y, u1.z * u2.x + u1.x * u2.z, u1.x * u2.y + u1.y * u2.x);
+    let edges = u1.length_squared() + spread(f[2], f[1]).length_squared() + u2.length_squared();
+    let total: f64 = perm.iter().sum();
+    let lifted: f64 = (0..4).map(|i| perm[i] * s[i]).sum();
+    let accurate = [
+        (8.0 * eps * span.length(), area2),
+        (16.0 * eps * u3.dot(span), op.abs()),
+        (16.0 * eps * f[0].abs().dot(span), oq.abs()),
+        (2.0 * DET_ERROR * total, sum.abs()),
+        (8.0 * eps * edges, rms * rms),
+    ]
+    .iter()
+    .all(|&(error, value)| error <= ROW_TOL * value && value >= ROW_TINY);
+    let terms = 3.0 * DET_ERROR * lifted.max(total) * k.abs();
+    if !(accurate && norm >= ROW_TINY && norm.is_finite() && terms <= ROW_TOL) {
+        return None;
+    }
     let g0 = (cof[0] * s[0] + cof[1] * s[1] + cof[2] * s[2] + cof[3] * s[3]) * k;
     // coefficients in user units: the frame's squared lengths are the user's times inv^2
     let kw = k * inv * inv;
-    let coefficients = [-cof[0] * kw, -cof[1] * kw, -cof[2] * kw, -cof[3] * kw, (cof[0] + cof[1] + cof[2] + cof[3]) * kw];
+    let coefficients = [-cof[0] * kw, -cof[1] * kw, -cof[2] * kw, -cof[3] * kw, sum * kw];
     let vertices = [tet[0], tet[1], tet[2], tet[3], q];
-    let folded = hp * hq > 0.0;
-    if ok {
+    Some(((vertices, g0, coefficients, true), hp * hq > 0.0))
+}
+
+/// [`row`] in exact rational arithmetic from the input coordinates, rounded once per value
+/// (within a few ulps): `margin = sign * D / (2 |O_p O_q|) * sqrt(3 N / L)`, with `O_p`,
+/// `O_q` the orientation determinants of the face with `p` and with `q`, `N` the squared
+/// norm of the face's normal, `L` the sum of its squared edge lengths (module docs). Not
+/// defined only for an exactly flat tet; a value beyond the `f64` range is infinite.
+fn exact_row(tet: [u32; 4], x: [DVec3; 4], c: usize, q: u32, xq: DVec3) -> Viewed {
+    let vertices = [tet[0], tet[1], tet[2], tet[3], q];
+    exactly(|| {
+        type V3 = [Exact; 3];
+        let sub = |a: V3, b: V3| -> V3 { [a[0] - b[0], a[1] - b[1], a[2] - b[2]] };
+        let dot = |a: V3, b: V3| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let cross = |a: V3, b: V3| -> V3 {
+            [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+        };
+        let point = |v: DVec3| -> V3 { v.to_array().map(Exact::from) };
+        let origin = point(xq);
+        let e = x.map(|xi| sub(point(xi), origin));
+        let s = e.map(|v| dot(v, v));
+        let det = |a: V3, b: V3, c: V3| dot(a, cross(b, c));
+        let cof = [-det(e[1], e[2], e[3]), det(e[0], e[2], e[3]), -det(e[0], e[1], e[3]), det(e[0], e[1], e[2])];
+        let f = FACES[c].map(|k| e[k]);
+        let (d1, d2, d3) = (sub(f[1], f[0]), sub(f[2], f[0]), sub(f[2], f[1]));
+        let normal = cross(d1, d2);
+        let zero = Exact::from(0.0);
+        let (op, oq) = (dot(sub(e[c], f[0]), normal), dot(sub([zero; 3], f[0]), normal));
+        let folded = op.signum() * oq.signum() > 0;
+        if op.signum() == 0 || oq.signum() == 0 {
+            return ((vertices, f64::NAN, [f64::NAN; 5], false), folded);
+        }
+        let sum = cof[0] + cof[1] + cof[2] + cof[3];
+        // 2 |O_p O_q| / orientation (minus the sum of the cofactors), and sqrt(3 N / L) as m 2^k
+        let product = op * oq;
+        let signed = Exact::from(-2.0 * f64::from(sum.signum() * product.signum())) * product;
+        let (mut m, mut k) = (Exact::from(3.0) * dot(normal, normal) / (dot(d1, d1) + dot(d2, d2) + dot(d3, d3))).split();
+        if k % 2 != 0 {
+            (m, k) = (2.0 * m, k - 1);
+        }
+        let root = (m.sqrt(), k / 2);
+        let value = |numerator: Exact| {
+            let (m, k) = (numerator / signed).split();
+            ldexp(m * root.0, k + root.1)
+        };
+        let g0 = value(cof[0] * s[0] + cof[1] * s[1] + cof[2] * s[2] + cof[3] * s[3]);
+        let coefficients = [value(-cof[0]), value(-cof[1]), value(-cof[2]), value(-cof[3]), value(sum)];
         ((vertices, g0, coefficients, true), folded)
-    } else {
-        ((vertices, f64::NAN, [f64::NAN; 5], false), folded)
-    }
+    })
 }
 
 /// The conditions of every interior face `[t1, c1, t2, c2]` of `interior` (the table of
@@ -182,19 +286,24 @@ pub fn conditions(mesh: &TetView, interior: &[[u32; 4]], opts: &Options) -> Resu
         n_faces,
         folded,
         flat: vec![],
+        beyond_range: vec![],
     };
     let rows = first.into_iter().enumerate().map(|(f, r)| (f as u32, r)).chain(second);
     for (f, (vertices, g0, coefficients, ok)) in rows {
-        if !ok && c.flat.last() != Some(&f) {
+        if !ok {
             c.flat.push(f);
+        } else if !(g0.is_finite() && coefficients.iter().all(|v| v.is_finite())) {
+            c.beyond_range.push(f);
         }
         c.vertices.push(vertices);
         c.g0.push(g0);
         c.coefficients.push(coefficients);
         c.face.push(f);
     }
-    c.flat.sort_unstable();
-    c.flat.dedup();
+    for faces in [&mut c.flat, &mut c.beyond_range] {
+        faces.sort_unstable();
+        faces.dedup();
+    }
     Ok(c)
 }
 
@@ -361,6 +470,35 @@ mod tests {
         // w = |x|^2 lifts every point onto a hyperplane: within rounding of 0, left to exact arithmetic
         let flat: Vec<f64> = (0..5).map(|i| (0..3).map(|k| points[3 * i + k] * points[3 * i + k]).sum()).collect();
         assert_eq!(lifted_signs(&mesh, &interior, Some(&flat), &opts).unwrap(), vec![0, 0]);
+    }
+
+    #[test]
+    fn the_exact_rows_agree_with_the_float_rows_and_serve_needles() {
+        let p = [DVec3::new(0., 0., 0.), DVec3::new(1., 0.1, 0.), DVec3::new(0.2, 1., 0.), DVec3::new(0.1, 0.3, 1.)];
+        let q = DVec3::new(1.1, 0.9, 0.8);
+        for c in 0..4 {
+            let (((_, g, a, ok), folded), ((_, h, b, exact_ok), exact_folded)) =
+                (float_row([0, 1, 2, 3], p, c, 4, q).unwrap(), exact_row([0, 1, 2, 3], p, c, 4, q));
+            assert!(ok && exact_ok && folded == exact_folded);
+            assert!((g - h).abs() < 1e-14 && (0..5).all(|k| (a[k] - b[k]).abs() < 1e-14), "{g} {a:?} {h} {b:?}");
+        }
+        // a needle: the base (0, 1, 2) of tets with apexes below at -1 and above at height h;
+        // power centres at z = -0.29 and (h^2 - 0.42) / (2 h), RMS edge 2 / sqrt(3)
+        let base = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(0.3, 0.3, -1.0)];
+        for h in [10.0, 1e4, 1e16, 1e50, 1e150, 1e300] {
+            let apex = DVec3::new(0.3, 0.3, h);
+            let ((_, g, a, ok), folded) = row([0, 1, 2, 3], base, 3, 4, apex);
+            let expected = ((h - 0.42 / h) / 2.0 + 0.29) * 3f64.sqrt() / 2.0;
+            // float64 within its bounds (1e-12 here); beyond them exact
+            let tol = if h < 1e6 { 1e-12 } else { 1e-14 };
+            assert!(ok && !folded && (g / expected - 1.0).abs() < tol, "{h}: {g} {expected}");
+            // d margin / d w_apex = -1 / (2 h) over the RMS edge
+            assert!((a[4] * h * 4.0 / 3f64.sqrt() + 1.0).abs() < tol, "{h}: {a:?}");
+            // seen from the needle, against the apex below
+            let needle = [DVec3::ZERO, DVec3::X, DVec3::Y, apex];
+            let ((_, g, _, ok), _) = row([0, 1, 2, 4], needle, 3, 3, base[3]);
+            assert!(ok && (g / expected - 1.0).abs() < tol, "{h}: {g} {expected}");
+        }
     }
 
     #[test]
