@@ -50,7 +50,7 @@ def test_the_margin_of_a_needle_is_its_exact_power_edge(apex, below):
         np.testing.assert_allclose(g, [expected], rtol=1e-13)
 
 
-@pytest.mark.parametrize("apex", APEXES)
+@pytest.mark.parametrize("apex", APEXES + [1e150])
 @pytest.mark.parametrize("below", [False, True])
 def test_a_delaunay_needle_is_proved_regular(apex, below):
     for order, corners in ORDERS:
@@ -67,6 +67,17 @@ def test_a_delaunay_needle_is_proved_regular(apex, below):
             assert "decided exactly" in r.verification
             report = tetlap.info.report(V, T)["regular"]
         assert report["status"] == "regular", report
+
+
+def test_a_mesh_spanning_600_orders_of_squared_length_is_named_not_warned():
+    # at 1e150 the search's unit put the unit base's volume below float64 (1e-452); at
+    # 1e300 the weights' units (squared lengths 1e-300 .. 1e300) overflow
+    V, T = needle(1e300)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(tetlap.NonFiniteError, match="too many orders of magnitude"):
+            regular_weights(V, T)
+        assert tetlap.info.report(V, T)["regular"]["status"] == "n/a"
 
 
 def test_only_an_exactly_flat_tet_is_refused():

@@ -59,18 +59,30 @@ def check_float_range(V, T) -> None:
 UNIT_BAND = (2.0**-64, 2.0**64)
 
 
-def unit_scale(V) -> float:
-    """A power of two ``s`` such that ``V / s`` has a bounding box of size about 1, for the
+def unit_scale(V, T) -> float:
+    """A power of two ``s`` such that ``V / s`` has edges of about unit length, for the
     scale-free computations that take powers of lengths in NumPy (the quality barrier of
-    :func:`tetlap.improve.improve`, :func:`tetlap.regular_weights`; they pass the vertices
-    in tets only, so that a vertex in none changes nothing); 1.0 for the
-    meshes of any real-world unit (box between ``2^-64`` and ``2^64``), which are computed
-    as given. Dividing by ``s`` and multiplying back are exact.
+    :func:`tetlap.improve.improve`, :func:`tetlap.regular_weights`, the heat step of
+    :class:`tetlap.HeatDistance`); ``V`` (n, 3) the vertices in tets only (so that a vertex
+    in none changes nothing), ``T`` (m, 4) or (m, 3) on them. 1.0 for the meshes of any real-world
+    unit (box between ``2^-64`` and ``2^64``), which are computed as given; beyond, the
+    geometric mean of the shortest and the longest edge, so that a mesh spanning many
+    orders of magnitude (a needle of 1e150 on a unit base) keeps both ends' volumes in the
+    float64 range. Dividing by ``s`` and multiplying back are exact.
 
-    >>> unit_scale([[0.0, 0, 0], [3, 0, 0]]), unit_scale([[0.0, 0, 0], [3e100, 0, 0]]) == 2.0**334
+    >>> import numpy as np
+    >>> T = np.array([[0, 1, 2, 3]])
+    >>> unit_scale(np.eye(4)[:, :3], T), unit_scale(3e100 * np.eye(4)[:, :3], T) == 2.0**334
     (1.0, True)
     """
-    extent = float(np.ptp(np.asarray(V, dtype=np.float64), axis=0).max())
+    V = np.asarray(V, dtype=np.float64)
+    extent = float(np.ptp(V, axis=0).max()) if len(V) else 0.0
     if UNIT_BAND[0] <= extent <= UNIT_BAND[1] or not np.isfinite(extent) or extent == 0:
         return 1.0
-    return float(2.0 ** np.frexp(extent)[1])
+    X = V[T]
+    k = T.shape[1]
+    edges = np.concatenate([X[:, b] - X[:, a] for a in range(k) for b in range(a + 1, k)])
+    longest = np.abs(edges).max(axis=1)                   # within sqrt(3) of the length
+    longest = longest[longest > 0]
+    exponents = np.frexp(np.array([longest.min(), longest.max()]))[1]
+    return float(2.0 ** ((int(exponents[0]) + int(exponents[1])) // 2))

@@ -167,11 +167,11 @@ class HeatDistance:
         V, T = _arrays.mesh(V, T)
         V, T = _arrays.points(V), _arrays.elements(T)
         n = len(V)
-        used, _ = _arrays.used_vertices(V, T)
+        used, T_used = _arrays.used_vertices(V, T)
         # a mesh far from unit size is computed in a copy scaled by a power of two (exact;
         # the heat step's powers of lengths left float64 from about 1e40): distances,
         # h and t are given back in the caller's units
-        self._scale = unit_scale(V[used])
+        self._scale = unit_scale(V[used], T_used)
         if self._scale != 1.0:
             V = V / self._scale
             if weights is not None:

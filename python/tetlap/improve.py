@@ -353,7 +353,7 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
     before = dual_statistics(V0, T)
     # vertices in no tet take no part (they stay where they are)
     used, T_used = _arrays.used_vertices(V0, T)
-    scale = unit_scale(V0[used])
+    scale = unit_scale(V0[used], T_used)
     objective = Objective(V0[used] / scale, T_used, fixed[used], margin=margin,
                           barrier=barrier, regularization=regularization, threads=threads)
     x0 = objective.start()

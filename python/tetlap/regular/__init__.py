@@ -307,7 +307,7 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
                            threads=threads)
     V, T = _validated(V, T)
     used, T_used = _arrays.used_vertices(V, T)
-    scale = unit_scale(V[used])
+    scale = unit_scale(V[used], T_used)
     X = V[used] / scale                 # exact: a power of two
     budget = Budget(iterations=int(max_iterations),
                     deadline=None if time_limit is None else start + float(time_limit))

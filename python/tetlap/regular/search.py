@@ -24,6 +24,7 @@ import scipy.sparse as sp
 
 from .. import _core
 from .._interrupt import interruptible
+from ..errors import NonFiniteError
 from . import verify
 from .conditions import Conditions
 
@@ -73,13 +74,26 @@ class Problem:
 
     @classmethod
     def of(cls, cond: Conditions, scale: np.ndarray) -> Problem:
+        """The problem of ``cond``; :class:`tetlap.NonFiniteError` where a row's
+        coefficients in these units leave float64 (edges spanning about 300 orders of
+        magnitude: a needle of 1e300 on a unit base)."""
         if not cond.folded.any():       # every row (no copies)
             rows, vertices, g0 = np.arange(len(cond.g0)), cond.vertices, cond.g0
-            coefficients = cond.coefficients * scale[vertices]
+            coefficients = cond.coefficients
         else:
             rows = np.flatnonzero(~cond.folded[cond.face])
             vertices, g0 = cond.vertices[rows], cond.g0[rows]
-            coefficients = cond.coefficients[rows] * scale[vertices]
+            coefficients = cond.coefficients[rows]
+        with np.errstate(over="ignore"):
+            coefficients = coefficients * scale[vertices]
+        bad = ~np.isfinite(coefficients).all(axis=1)
+        if bad.any():
+            face = int(cond.face[rows[np.argmax(bad)]])
+            raise NonFiniteError(
+                f"interior face {face}: its regularity condition in the units of the weights "
+                f"(squared edge lengths at its vertices, {scale[vertices[bad][0]].min():.3g} to "
+                f"{scale[vertices[bad][0]].max():.3g}) leaves the float64 range: the mesh's "
+                "edges span too many orders of magnitude for vertex weights")
         return cls(rows=rows, vertices=vertices, g0=g0, coefficients=coefficients, scale=scale)
 
     @property
