@@ -381,7 +381,7 @@ def test_a_flat_tet_is_reported_not_refused():
     result = info.report(V, T, progress=False)
     assert result["mesh"]["n_degenerate_tets"] == 1
     assert result["regular"]["status"] == "n/a"
-    assert "tet 48 is flat to double precision" in result["regular"]["reason"]
+    assert "tet 48 is flat (zero volume, exactly)" in result["regular"]["reason"]
 
 
 # ---- plots ----------------------------------------------------------------------------
