@@ -544,3 +544,22 @@ def test_a_witness_rayleigh_quotient_is_labelled_an_upper_bound():
     report = tetlap.info.report(V, T, regular=False)
     assert report["schema_version"] == tetlap.info.SCHEMA_VERSION == 3
     assert report["dual"]["nsd_min_eigenvalue_upper_bound"] == bound
+
+
+@pytest.mark.parametrize("scale", [1e-300, 1e-315, 1e-320, 5e-324, 1e300])
+def test_any_positive_multiple_gets_a_report_and_the_same_answer_where_it_is_exact(scale):
+    # SciPy's SuperLU called L * 1e-320 "exactly singular" (a bare RuntimeError): the
+    # tolerances 1e-9 |L_ii| underflowed; the matrix is now decided scaled by a power of 2
+    import warnings
+
+    V, T = tetlap.meshes.ball(200, seed=3)
+    for kind in ("primal", "dual"):
+        L = tetlap.laplacian(V, T, kind)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            r = tetlap.check(L * scale, V, T)
+        assert r.nsd in (True, False)
+        with np.errstate(all="ignore"):                      # no subnormal rounding
+            exact = bool((L.data * scale / scale == L.data).all())
+        if exact:
+            assert r.nsd is tetlap.check(L, V, T).nsd, (kind, r.nsd_method)

@@ -374,10 +374,25 @@ def _dense(S: sp.csr_array, diagonal: np.ndarray):
 def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights=None):
     """(is NSD, smallest eigenvalue of -L or a witness' Rayleigh quotient, method): the
     cheapest answer first (see :func:`check`, Notes); ``weights`` those of a weighted dual
-    (``kind="dual"``, ``assembled=True``)."""
-    n = L.shape[0]
+    (``kind="dual"``, ``assembled=True``). A matrix whose largest entry is beyond
+    ``2^-900 .. 2^900`` is decided scaled by a power of two (exact for it, and the
+    answer of a positive multiple): its tolerances and pivots would leave the normal
+    float64 range (SuperLU called ``L * 1e-320`` exactly singular)."""
     S = (L + L.T) / 2
     S.sort_indices()
+    largest = float(abs(S).max()) if S.nnz else 0.0
+    if largest == 0 or 2.0**-900 <= largest <= 2.0**900 or not np.isfinite(largest):
+        return _nsd_of(S, V, T, scale, kind, assembled, weights)
+    shift = -int(np.frexp(largest)[1])
+    S = sp.csr_array((np.ldexp(S.data, shift), S.indices, S.indptr), shape=S.shape)
+    verdict, lam, method = _nsd_of(S, V, T, scale, kind, assembled, weights)
+    return (verdict, None if lam is None else float(np.ldexp(lam, -shift)),
+            f"{method} (on L x 2^{shift}, exact)")
+
+
+def _nsd_of(S: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights):
+    """:func:`_nsd` of the symmetric part ``S`` (sorted indices)."""
+    n = S.shape[0]
     diagonal = np.abs(S.diagonal())
     tol = NSD_RTOL * diagonal
     answer = _element_certificate(S, V, T, scale, tol, kind, assembled, weights)
