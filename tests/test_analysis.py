@@ -563,3 +563,13 @@ def test_any_positive_multiple_gets_a_report_and_the_same_answer_where_it_is_exa
             exact = bool((L.data * scale / scale == L.data).all())
         if exact:
             assert r.nsd is tetlap.check(L, V, T).nsd, (kind, r.nsd_method)
+
+
+@pytest.mark.parametrize("bad", ["no", 0, 1, None, [True]])
+def test_nsd_is_a_flag(bad):
+    # nsd="no" was truthy, and checked semidefiniteness
+    V, T = tetlap.meshes.cube(2)
+    L = tetlap.laplacian(V, T)
+    with pytest.raises(tetlap.OptionError, match="nsd must be True or False"):
+        tetlap.check(L, V, T, nsd=bad)
+    assert tetlap.check(L, V, T, nsd=np.bool_(False)).nsd is None

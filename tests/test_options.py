@@ -71,9 +71,9 @@ TABLE = [
     ("tetlap.improve.improve", "margin", lambda x: tetlap.improve.improve(V, T, margin=x),
      NON_NEGATIVE),
     ("tetlap.improve.improve", "barrier", lambda x: tetlap.improve.improve(V, T, barrier=x),
-     NON_NEGATIVE),
+     NON_NEGATIVE + [1e13, 1e300]),     # beyond MAX_WEIGHT the objective overflowed
     ("tetlap.improve.improve", "regularization",
-     lambda x: tetlap.improve.improve(V, T, regularization=x), NON_NEGATIVE),
+     lambda x: tetlap.improve.improve(V, T, regularization=x), NON_NEGATIVE + [1e13, 1e300]),
     ("tetlap.improve.improve", "step", lambda x: tetlap.improve.improve(V, T, step=x), POSITIVE),
     ("tetlap.improve.improve", "max_iterations",
      lambda x: tetlap.improve.improve(V, T, max_iterations=x), COUNT),

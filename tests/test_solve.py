@@ -245,6 +245,7 @@ def test_a_singular_system_is_reported_with_its_residual():
     # values were "not one per fixed vertex")
     (lambda: solve.dirichlet(LC, [0, 0, 5], [0.0, 1.0, 2.0]), tetlap.OptionError),
     (lambda: solve.eigs(LC, MC, k=2, fixed=[0, 1, 1]), tetlap.OptionError),
+    (lambda: solve.dirichlet(LC, [[0, 5]], 1.0), tetlap.ShapeError),   # was read flat
     (lambda: solve.dirichlet(LC, BC, 1.0, method="lu"), tetlap.OptionError),
     (lambda: solve.dirichlet(sp.eye_array(3) * np.nan, [0], 1.0), tetlap.NonFiniteError),
     (lambda: solve.dirichlet("LC", [0], 1.0), TypeError),

@@ -242,7 +242,10 @@ def vertex_mask(given, n: int, name: str, once: bool = False) -> np.ndarray:
     if arr.dtype.kind not in "iu":
         raise DtypeError(f"`{name}` must be a boolean mask or integer vertex indices, got "
                          f"dtype {arr.dtype}")
-    flat = arr.ravel()
+    if arr.ndim != 1:
+        raise ShapeError(f"`{name}` must be a 1-D array of vertex indices, got shape "
+                         f"{arr.shape}")
+    flat = arr
     bad = (flat < 0) | (flat >= n)
     if bad.any():
         raise not_a_vertex(f"`{name}` holds", int(flat[np.argmax(bad)]), n)

@@ -23,6 +23,16 @@ T : (m, 4) or (m, 3) array-like of integers, optional
     anything with ``points`` and tetra or triangle cells (see
     :func:`tetlap.io.from_mesh`), followed by the arguments after ``T``
     (``laplacian(mesh, "dual")``).""",
+    "tet_mesh": """\
+V : (n, d) array-like of real numbers
+    Vertex positions, any real dtype (converted to float64), ``d >= 3``; a larger ``d``
+    means an immersed mesh (e.g. a tetrahedralised 3-sphere in R^4), every tet computed in
+    its own 3-space.
+T : (m, 4) array-like of integers
+    Tets: 0-based vertex indices, any integer dtype, any orientation (results do not depend
+    on the orientation or vertex order of a tet). Triangles ``(m, 3)`` are refused
+    (:class:`tetlap.ShapeError`): the derivatives are those of tets. A mesh object may be
+    passed as ``V`` with ``T=None``, as for :func:`tetlap.laplacian`.""",
     "kind": """\
 kind : {"primal", "dual"} or float, default "primal"
     ``"primal"``: P1 FEM / cotan weights (paper Eq. 7), always negative semidefinite.

@@ -19,10 +19,12 @@ from __future__ import annotations
 import math
 import numbers
 
+import numpy as np
+
 from .errors import OptionError
 
 __all__ = ["positive", "non_negative", "tolerance", "finite", "count", "threads", "at_most",
-           "at_least", "MAX_SECONDS"]
+           "at_least", "flag", "MAX_SECONDS"]
 
 
 def _real(value) -> bool:
@@ -34,6 +36,13 @@ def positive(value, name: str) -> float:
     if not (_real(value) and math.isfinite(value) and value > 0):
         raise OptionError(f"{name} must be a positive number")
     return value
+
+
+def flag(value, name: str) -> bool:
+    """``value`` if it is True or False (a NumPy bool too): ``"no"`` or 0 are not flags."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise OptionError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
 
 
 def non_negative(value, name: str) -> float:

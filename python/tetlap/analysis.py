@@ -223,6 +223,7 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
         raise OptionError(f'kind must be None, "primal", "dual", "cell" or a float t in [0, 1], '
                           f'got {kind!r}')
     _options.tolerance(negative_tol, "negative_tol")
+    nsd = _options.flag(nsd, "nsd")
     if kind == "cell":
         from . import cells
 

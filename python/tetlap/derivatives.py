@@ -126,7 +126,7 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
 
     Parameters
     ----------
-    {mesh}
+    {tet_mesh}
     {kind}
     mass : {{"barycentric", "circumcentric", "fem"}}, default "barycentric"
         (the ``"mixed"`` mass is not differentiable: its centres move piecewise)
@@ -225,7 +225,7 @@ def dirichlet_energy(V, T, f, kind="primal", *, boundary="circumcentric", weight
 
     Parameters
     ----------
-    {mesh}
+    {tet_mesh}
     f : (n,) or (n, k) array-like of real numbers
         A function per vertex; for k columns the energies add up
         (``E = -trace(f^T L f)``).
@@ -282,7 +282,7 @@ def mass_energy(V, T, f, kind="barycentric", *, boundary="circumcentric", weight
 
     Parameters
     ----------
-    {mesh}
+    {tet_mesh}
     f : (n,) or (n, k) array-like of real numbers
         A function per vertex; for k columns the forms add up.
     {mass_kind}

@@ -64,7 +64,7 @@ from .errors import ShapeError
 from .analysis import negative_weights
 
 __all__ = ["improve", "Improvement", "Objective", "keep_orientation",
-           "fewest_negative_weights", "dual_statistics", "MAX_MARGIN"]
+           "fewest_negative_weights", "dual_statistics", "MAX_MARGIN", "MAX_WEIGHT"]
 
 #: Tets may lose this fraction of their quality before the barrier acts.
 R0 = 0.5
@@ -276,12 +276,16 @@ def fewest_negative_weights(objective: Objective, x0, x, alpha: float) -> float:
 
 #: The largest ``margin``: the squared hinge of a larger one leaves the float range.
 MAX_MARGIN = 1e6
+#: The largest ``barrier`` and ``regularization``: weights beyond make the objective
+#: overflow (1e300 did, with a NumPy warning, and nothing moved).
+MAX_WEIGHT = 1e12
 
 
 def _check_options(margin, barrier, regularization, step, max_iterations, threads) -> None:
     _options.at_most(_options.non_negative(margin, "margin"), MAX_MARGIN, "margin")
-    _options.non_negative(barrier, "barrier")
-    _options.non_negative(regularization, "regularization")
+    _options.at_most(_options.non_negative(barrier, "barrier"), MAX_WEIGHT, "barrier")
+    _options.at_most(_options.non_negative(regularization, "regularization"), MAX_WEIGHT,
+                     "regularization")
     _options.positive(step, "step")
     _options.count(max_iterations, "max_iterations")
     _options.threads(threads)
@@ -304,10 +308,10 @@ def improve(V, T, *, fixed=None, margin: float = 0.02, barrier: float = 10.0,
     margin : float in [0, 1e6], default 0.02
         ``delta``: weights below ``delta h`` are penalised (``h`` the mean edge length);
         at most :data:`MAX_MARGIN`.
-    barrier : float >= 0, default 10
-        ``mu``, the weight of the quality barrier.
-    regularization : float >= 0, default 1e-4
-        ``lambda``, the weight of the displacement term.
+    barrier : float in [0, 1e12], default 10
+        ``mu``, the weight of the quality barrier; at most :data:`MAX_WEIGHT`.
+    regularization : float in [0, 1e12], default 1e-4
+        ``lambda``, the weight of the displacement term; at most :data:`MAX_WEIGHT`.
     step : float > 0, default 0.3
         Every vertex stays within a box of half-width ``step`` times its shortest edge (a
         box below the rounding of its coordinates: the vertex does not move).
