@@ -19,8 +19,6 @@ from __future__ import annotations
 import math
 import numbers
 
-import numpy as np
-
 from .errors import OptionError
 
 __all__ = ["positive", "non_negative", "tolerance", "finite", "count", "threads", "at_most",
@@ -40,6 +38,8 @@ def positive(value, name: str) -> float:
 
 def flag(value, name: str) -> bool:
     """``value`` if it is True or False (a NumPy bool too): ``"no"`` or 0 are not flags."""
+    import numpy as np     # here: `tetlap --help` imports this module, and not NumPy
+
     if not isinstance(value, (bool, np.bool_)):
         raise OptionError(f"{name} must be True or False, got {value!r}")
     return bool(value)
