@@ -94,6 +94,7 @@ def test_experiment_quick(tmp_path):
     assert any("variance ratio" in line for line in out.lines)
 
 
+@pytest.mark.slow  # 9 s; the default run has improve()'s example in test_docstrings
 def test_docstring_example_runs():
     import doctest
 
