@@ -342,7 +342,8 @@ def test_files_that_declare_absurd_sizes_are_mesh_file_errors(tmp_path, big):
     for name, content in files.items():
         (tmp_path / name).write_bytes(content)
     for name in files:
-        broken = "points.node" if name == "points.ele" else name  # meshio reads both
+        # meshio reads both files of a TetGen pair: the error names the broken one
+        broken = {"points.ele": "points.node", "tets.node": "tets.ele"}.get(name, name)
         with pytest.raises(tetlap.MeshFileError, match=broken.replace(".", r"\.")):
             tetlap.io.read(tmp_path / name)
 
@@ -376,3 +377,206 @@ def test_the_command_reports_an_absurd_file_in_one_line(tmp_path):
         last = out.stderr.splitlines()[-1]   # after the steps info reports on stderr
         assert last.startswith("tetlap: error: ") and out.stderr.count("tetlap: error") == 1
         assert "points.mesh: its header declares 1000000000000 records" in last
+
+
+# ---- cut-short files and files meshio would write without the tets (issue 30, round 4) --
+
+
+def _run_bounded(*args: str, timeout: float = 120):
+    """``python ARGS`` in a child process (text output), killed if it runs past ``timeout``
+    (meshio loops forever on some files): (returncode, stdout, stderr)."""
+    import subprocess
+    import sys
+
+    child = subprocess.Popen([sys.executable, *args], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = child.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"python {' '.join(args)} still running after {timeout} s (a hang)")
+    finally:
+        child.kill()
+        child.communicate()
+    return child.returncode, out, err
+
+
+_NODE = "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n"
+_ELE = "1 4 0\n0 0 1 2 3\n"
+_NO_HEADER = {"empty": "", "comments": "# a comment\n\n   \n# another\n"}
+_SHORT_HEADER = {".node": "4 3 0\n", ".ele": "1 4\n", "words": "points 3 0 0\n"}
+
+
+def _tetgen_pairs(tmp_path) -> dict[str, str]:
+    """name -> the expected start of the error: TetGen pairs with one file cut short."""
+    pairs = {}
+    for broken in (".node", ".ele"):
+        bodies = {key: text for key, text in _NO_HEADER.items()}
+        bodies["short"] = _SHORT_HEADER[broken] + (_NODE if broken == ".node" else _ELE)[8:]
+        bodies["words"] = _SHORT_HEADER["words"]
+        for key, text in bodies.items():
+            stem = tmp_path / f"{key}{broken[1:]}"
+            stem.with_suffix(".node").write_text(text if broken == ".node" else _NODE)
+            stem.with_suffix(".ele").write_text(text if broken == ".ele" else _ELE)
+            pairs[str(stem.with_suffix(".ele"))] = str(stem.with_suffix(broken))
+            pairs[str(stem.with_suffix(".node"))] = str(stem.with_suffix(broken))
+    return pairs
+
+
+def test_tetgen_files_without_their_header_are_mesh_file_errors_not_hangs(tmp_path):
+    # meshio skipped blank and comment lines past the end of the file forever (100% CPU)
+    pairs = _tetgen_pairs(tmp_path)
+    code = ("import sys, tetlap, tetlap.io\n"
+            "for path in sys.argv[1:]:\n"
+            "    try:\n"
+            "        tetlap.io.read(path)\n"
+            "        print('read', path)\n"
+            "    except tetlap.MeshFileError as e:\n"
+            "        print(str(e).replace(chr(10), ' '))\n")
+    returncode, out, err = _run_bounded("-c", code, *pairs)
+    assert returncode == 0, err
+    lines = out.splitlines()
+    assert len(lines) == len(pairs)
+    for line, (path, broken) in zip(lines, pairs.items()):
+        assert line.startswith(f"{broken}: "), (path, line)
+        assert ("no header line" in line) == ("empty" in broken or "comments" in broken), line
+        assert "TetGen" in line and "header" in line
+    (tmp_path / "good.node").write_text(_NODE)
+    (tmp_path / "good.ele").write_text("# a comment first\n\n" + _ELE)
+    V, T = tetlap.io.read(tmp_path / "good.ele")
+    assert V.shape == (4, 3) and T.tolist() == [[0, 1, 2, 3]]
+
+
+def test_the_command_reports_a_tetgen_file_without_header_in_one_line(tmp_path):
+    (tmp_path / "f.node").write_text(_NO_HEADER["comments"])
+    (tmp_path / "f.ele").write_text(_ELE)
+    returncode, _, err = _run_bounded("-m", "tetlap", "info", "--no-nsd", "--no-regular",
+                                      str(tmp_path / "f.ele"))
+    assert returncode == 2 and "Traceback" not in err, err
+    assert err.count("tetlap: error") == 1
+    assert err.splitlines()[-1].startswith(f"tetlap: error: {tmp_path / 'f.node'}: no header line")
+
+
+def _cuts(data: bytes, section: bytes | None = None) -> list[int]:
+    """Lengths to cut ``data`` to: inside ``section`` (its keyword to the end), else
+    anywhere, at fractions of it, each also snapped to a line end."""
+    start = data.find(section) if section else 0
+    assert start >= 0
+    cuts = []
+    for f in (0.3, 0.6, 0.9, 0.99):
+        k = start + int((len(data) - start) * f)
+        cuts += [k, data.rfind(b"\n", 0, k) + 1]
+    # not inside the last line: a file cut inside its last number cannot be told from a
+    # whole one where the format has no end marker (legacy VTK, TetGen)
+    return sorted(set(k for k in cuts if start < k <= data.rstrip().rfind(b"\n")))
+
+
+def _assert_cut_files_fail(tmp_path, name: str, data: bytes, cuts, full, partner=None):
+    """Every cut of ``data`` read as ``name`` is a MeshFileError (EmptyMeshError if no
+    cells are left), or (a cut in a trailer the mesh does not need) gives the whole mesh
+    ``full``."""
+    for k in cuts:
+        path = tmp_path / name
+        path.write_bytes(data[:k])
+        if partner is not None:
+            partner[0].write_bytes(partner[1])
+        read = path.with_suffix(".ele") if path.suffix == ".node" else path
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                V, T = tetlap.io.read(read)
+        except (tetlap.MeshFileError, tetlap.EmptyMeshError):  # cut before any cells
+            continue
+        assert V.shape == full[0].shape and T.shape == full[1].shape, (name, k, T.shape)
+        np.testing.assert_array_equal(T, full[1], err_msg=f"{name} cut to {k} bytes")
+
+
+@pytest.mark.parametrize("kind", ["vtk42-ascii", "vtk42-binary", "vtk51-ascii",
+                                  "vtk51-binary", "gmsh22-ascii", "gmsh22-binary",
+                                  "gmsh-ascii", "gmsh-binary", "medit", "vtu-ascii", "vtu"])
+def test_cut_files_are_mesh_file_errors_not_fewer_tets(cube, tmp_path, kind):
+    # a legacy VTK file cut inside CELL_TYPES was read as the tets whose types came
+    # before the cut (3 of 160); a gmsh 2.2 file cut inside its last element line gave
+    # that element the line's tags as vertices
+    import contextlib
+    import io
+
+    V, T = cube
+    fmt, _, encoding = kind.partition("-")
+    ext = {"vtk42": ".vtk", "vtk51": ".vtk", "gmsh22": ".msh", "gmsh": ".msh",
+           "medit": ".mesh", "vtu": ".vtu"}[fmt]
+    whole = tmp_path / ("whole" + ext)
+    with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        options = {"binary": encoding == "binary"} if encoding else {}
+        meshio.Mesh(V, [("tetra", T)]).write(whole, file_format=fmt.replace("vtk51", "vtk"),
+                                             **options)
+    data = whole.read_bytes()
+    section = {".vtk": b"CELL_TYPES", ".msh": b"$Elements"}.get(ext)
+    cuts = _cuts(data) + (_cuts(data, section) if section else [])
+    if ext == ".msh":  # inside the last element's line
+        cuts.append(data.find(b"$EndElements") - 3)
+    _assert_cut_files_fail(tmp_path, "cut" + ext, data, cuts, (V, T))
+
+
+def test_cut_corpus_files_are_mesh_file_errors_not_fewer_tets(tmp_path):
+    from conftest import read_mesh, real_mesh_paths
+
+    paths = real_mesh_paths()
+    if not paths:
+        pytest.skip("real-mesh corpus not found (set TETLAP_MESHES)")
+    smallest = {}
+    for p in sorted(paths, key=lambda p: p.stat().st_size):
+        smallest.setdefault(p.suffix, p)
+    assert {".vtk", ".msh"} <= set(smallest)  # the two formats that were read cut short
+    for suffix, path in smallest.items():
+        full = read_mesh(path)
+        files = [path] + ([path.with_suffix(".node")] if suffix == ".ele" else [])
+        for cut in files:
+            data = cut.read_bytes()
+            partner = [p for p in files if p != cut]
+            _assert_cut_files_fail(tmp_path, "cut" + cut.suffix, data, _cuts(data), full,
+                                   (tmp_path / ("cut" + partner[0].suffix),
+                                    partner[0].read_bytes()) if partner else None)
+        if suffix == ".vtk":
+            data = path.read_bytes()
+            _assert_cut_files_fail(tmp_path, "cut.vtk", data, _cuts(data, b"CELL_TYPES"), full)
+
+
+@pytest.mark.parametrize("name", ["c.stl", "c.off", "c.ply", "c.obj", "C.STL"])
+def test_write_refuses_surface_formats_for_tets(cube, tmp_path, name):
+    # meshio wrote a file without the tets and only printed a warning
+    V, T = cube
+    ext = name[2:].lower()
+    with pytest.raises(tetlap.MeshFileError,
+                       match=rf"{name}: not a mesh format that holds tets \(\.{ext} .*\.vtu"):
+        tetlap.io.write(tmp_path / name, V, T)
+    assert not list(tmp_path.iterdir())
+    tetlap.io.write(tmp_path / name, V, T[:, :3])  # triangles: what the format holds
+    assert (tmp_path / name).stat().st_size > 0
+
+
+def test_write_data_must_be_a_dict_of_numeric_arrays(cube, tmp_path):
+    V, T = cube
+    m = len(T)
+    bad = [
+        ({"cell_data": [1, 2]}, tetlap.OptionError, "cell_data must be a dict"),
+        ({"point_data": np.zeros(len(V))}, tetlap.OptionError, "point_data must be a dict"),
+        ({"cell_data": {"c": ["x"] * m}}, tetlap.DtypeError, r"cell_data\['c'\] has dtype"),
+        ({"point_data": {"p": [None] * len(V)}}, tetlap.DtypeError, r"point_data\['p'\]"),
+        ({"cell_data": {"c": np.ones(m, complex)}}, tetlap.DtypeError, "complex"),
+        ({"cell_data": {"c": [[1.0]] * (m - 1) + [[1.0, 2.0]]}}, tetlap.ShapeError,
+         r"cell_data\['c'\] is not an array"),
+        ({"cell_data": {"c": 1.0}}, tetlap.ShapeError, r"cell_data\['c'\] has shape \(\)"),
+    ]
+    for kwargs, error, match in bad:
+        for target in (lambda: tetlap.io.write(tmp_path / "a.vtu", V, T, **kwargs),
+                       lambda: tetlap.io.to_meshio(V, T, **kwargs)):
+            with pytest.raises(error, match=match):
+                target()
+    assert not list(tmp_path.iterdir())
+    # NaN is data like any other value: written as given (the docstring's policy)
+    values = np.arange(m, dtype=float)
+    values[0] = np.nan
+    tetlap.io.write(tmp_path / "a.vtu", V, T, cell_data={"c": values})
+    back = meshio.read(tmp_path / "a.vtu").cell_data["c"][0]
+    np.testing.assert_array_equal(back, values)

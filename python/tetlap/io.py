@@ -30,12 +30,13 @@ import mmap
 import os
 import re
 import sys
+from collections.abc import Mapping
 
 import numpy as np
 
 from . import _arrays, _extras
 from ._meshobj import is_mesh_object, to_arrays
-from .errors import MeshFileError, ShapeError
+from .errors import DtypeError, MeshFileError, OptionError, ShapeError
 
 __all__ = ["read", "from_mesh", "write", "to_meshio", "to_pyvista", "edges_to_pyvista",
            "dual_cells"]
@@ -116,39 +117,103 @@ def from_mesh(obj, cell_type=None):
 
 #: The keywords of the formats whose headers declare counts of records (the one or two
 #: numbers right after a keyword: ``$Nodes`` / ``n``, ``CELLS n size``); TetGen's counts
-#: open the file. Every record of these formats takes at least two bytes per count (a
-#: digit and a separator, or a binary number), so a count above half the file's size is a
-#: broken header: refused before meshio allocates it (a binary ``.msh`` that declares 2e8
-#: vertices made meshio build a 2e8-element array for 40 s).
+#: open the file (:func:`_tetgen_header`). Every record of these formats takes at least two
+#: bytes per count (a digit and a separator, or a binary number), so a count above half the
+#: file's size is a broken header: refused before meshio allocates it (a binary ``.msh``
+#: that declares 2e8 vertices made meshio build a 2e8-element array for 40 s).
 _COUNT_KEYWORDS = {
     ".msh": (b"$Nodes", b"$Elements"),
     ".mesh": (b"Vertices", b"Triangles", b"Tetrahedra"),
     ".vtk": (b"POINTS", b"CELLS", b"CELL_TYPES"),
-    ".node": (b"",), ".ele": (b"",),
 }
 _COUNTS = re.compile(rb"\s*(\d+)(?:[ \t]+(\d+))?")
+
+#: The header line of each TetGen file: its numbers, their meaning.
+_TETGEN_HEADERS = {
+    ".node": "4 numbers: points, dimension, attributes, boundary markers",
+    ".ele": "3 numbers: tets, nodes per tet, attributes",
+}
+
+#: The sections of a gmsh file that must be closed: meshio reads a file that ends inside
+#: ``$Elements`` (and takes the last numbers of a cut last line as a cell's vertices).
+_GMSH_SECTIONS = ((b"$Nodes", b"$EndNodes"), (b"$Elements", b"$EndElements"))
+
+#: Legacy VTK's declared counts of points and cells, checked against what meshio read: it
+#: reads a file cut inside ``CELL_TYPES`` as a mesh of the cells whose types it got.
+_VTK_POINTS = re.compile(rb"^[ \t]*POINTS[ \t]+(\d+)", re.M)
+_VTK_CELL_TYPES = re.compile(rb"^[ \t]*CELL_TYPES[ \t]+(\d+)", re.M)
+
+
+def _broken(p: str, what: str) -> MeshFileError:
+    return MeshFileError(f"{p}: {what}: a broken or truncated file")
+
+
+def _tetgen_header(p: str) -> list[int]:
+    """The numbers of the TetGen file ``p``'s header, its first line that is neither blank
+    nor a comment; MeshFileError when there is none or it does not hold the numbers (meshio
+    would look for it past the end of the file forever)."""
+    expected = _TETGEN_HEADERS[os.path.splitext(p)[1].lower()]
+    with open(p, "rb") as f:
+        for line in f:
+            words = line.split(b"#", 1)[0].split()
+            if words:
+                break
+        else:
+            raise _broken(p, f"no header line (TetGen's first line holds {expected})")
+    if len(words) != int(expected[0]) or not all(w.isdigit() for w in words):
+        shown = " ".join(w.decode(errors="replace") for w in words)[:80]
+        raise _broken(p, f"its header line is {shown!r}, TetGen's holds {expected}")
+    return [int(w) for w in words]
 
 
 def _check_declared_counts(path: str) -> None:
     """MeshFileError if a count declared by ``path``'s header cannot fit in the file (and
-    for TetGen, in the ``.node`` / ``.ele`` file beside it)."""
+    for TetGen, in the ``.node`` / ``.ele`` file beside it), if a TetGen file has no
+    header, or if a gmsh section is not closed."""
     stem, suffix = os.path.splitext(path)
-    paths = [path] + ([stem + ".node"] if suffix == ".ele" else [])
+    suffix = suffix.lower()
+    paths = [stem + ".node", stem + ".ele"] if suffix in _TETGEN_HEADERS else [path]
     for p in paths:
-        keywords = _COUNT_KEYWORDS.get(os.path.splitext(p)[1].lower(), ())
-        if not keywords or not os.path.isfile(p) or not os.path.getsize(p):
+        if not os.path.isfile(p):
+            continue  # meshio reports it
+        size = os.path.getsize(p)
+        if suffix in _TETGEN_HEADERS:
+            count = _tetgen_header(p)[0]
+            if 2 * count > size:
+                raise _broken(p, f"its header declares {count} records (its first line), "
+                                 f"more than its {size} bytes can hold")
+            continue
+        keywords = _COUNT_KEYWORDS.get(suffix, ())
+        if not keywords or not size:
             continue
         with open(p, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as m:
-            size = len(m)
             for keyword in keywords:
-                at = m.find(keyword) if keyword else 0
-                found = _COUNTS.match(m[at + len(keyword):at + len(keyword) + 256]) if at >= 0 else None
+                at = m.find(keyword) + len(keyword)
+                found = _COUNTS.match(m[at:at + 256]) if at >= len(keyword) else None
                 for count in (int(c) for c in (found.groups() if found else ()) if c):
                     if 2 * count > size:
-                        what = keyword.decode() or "its first line"
-                        raise MeshFileError(
-                            f"{p}: its header declares {count} records ({what}), more than "
-                            f"its {size} bytes can hold: a broken or truncated file")
+                        raise _broken(p, f"its header declares {count} records ("
+                                         f"{keyword.decode()}), more than its {size} bytes "
+                                         "can hold")
+            if suffix == ".msh":
+                for start, end in _GMSH_SECTIONS:
+                    if m.find(start) >= 0 and m.find(end) < 0:
+                        raise _broken(p, f"its {start.decode()} section is not closed by "
+                                         f"{end.decode()}")
+
+
+def _check_read_counts(path: str, mesh) -> None:
+    """MeshFileError if meshio read fewer points or cells from a legacy VTK file than its
+    header declares."""
+    if os.path.splitext(path)[1].lower() != ".vtk":
+        return
+    read = {"POINTS": len(mesh.points), "CELL_TYPES": sum(len(c.data) for c in mesh.cells)}
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as m:
+        for keyword, pattern in (("POINTS", _VTK_POINTS), ("CELL_TYPES", _VTK_CELL_TYPES)):
+            found = pattern.search(m)
+            if found and int(found.group(1)) != read[keyword]:
+                raise _broken(path, f"its header declares {int(found.group(1))} records "
+                                    f"({keyword}), meshio read {read[keyword]}")
 
 
 def read(path, cell_type=None):
@@ -177,7 +242,10 @@ def read(path, cell_type=None):
         No such file.
     MeshFileError
         meshio cannot read the file (unknown format, malformed content, or counts in its
-        header larger than its content or than memory, which meshio would allocate).
+        header larger than its content or than memory, which meshio would allocate), or
+        the file is cut short: a TetGen ``.node`` / ``.ele`` without its header line, a
+        gmsh section not closed, a legacy VTK file with fewer points or cells than its
+        header declares.
         meshio's own ``sys.exit`` on some malformed files is caught: it never ends the
         program.
     ShapeError, EmptyMeshError
@@ -229,6 +297,7 @@ def read(path, cell_type=None):
     printed = (out.getvalue() + err.getvalue()).strip()
     if printed:
         print(printed, file=sys.stderr)
+    _check_read_counts(path, mesh)
     return to_arrays(mesh, cell_type, source=path, stacklevel=2)
 
 
@@ -243,16 +312,25 @@ def _points3d(V: np.ndarray) -> np.ndarray:
 
 def _checked(V, T, point_data, cell_data):
     """Validated copies: ``V`` (n, d) float64, ``T`` (m, 3|4) int64 with indices in range,
-    and the data arrays with one row per vertex / per cell."""
+    and the data arrays (numeric, one row per vertex / per cell)."""
     V = np.array(_arrays.points(V), copy=True)
     T = np.array(_arrays.elements(T), copy=True)
     n, m = len(V), len(T)
     _arrays.in_range(T, n, "element")
     data = []
     for what, rows, given in (("point_data", n, point_data), ("cell_data", m, cell_data)):
+        if given is not None and not isinstance(given, Mapping):
+            raise OptionError(f"{what} must be a dict of name -> array, got "
+                              f"{type(given).__name__}")
         arrays = {}
         for name, values in (given or {}).items():
-            a = np.array(values, copy=True)
+            try:
+                a = np.array(values, copy=True)
+            except ValueError as e:  # ragged nested lists
+                raise ShapeError(f"{what}[{name!r}] is not an array ({e})") from None
+            if a.dtype.kind not in "biuf":
+                raise DtypeError(f"{what}[{name!r}] has dtype {a.dtype}, not bool, integer "
+                                 "or real numbers")
             if a.ndim == 0 or len(a) != rows:
                 unit = "vertices" if what == "point_data" else "cells"
                 raise ShapeError(f"{what}[{name!r}] has shape {a.shape}, the mesh {rows} {unit}")
@@ -281,7 +359,9 @@ def to_meshio(V, T, point_data=None, cell_data=None):
     Raises
     ------
     ShapeError, DtypeError, IndexRangeError
-        Bad ``V`` / ``T``, or data with the wrong number of rows.
+        Bad ``V`` / ``T``, or data with the wrong number of rows or not numeric.
+    OptionError
+        ``point_data`` or ``cell_data`` not a dict.
 
     Examples
     --------
@@ -299,6 +379,25 @@ def to_meshio(V, T, point_data=None, cell_data=None):
                        cell_data={name: [a] for name, a in cells.items()})
 
 
+#: meshio's formats of points, lines and polygons only: their writers drop tets (printing
+#: a warning) and write a file without them.
+_SURFACE_FORMATS = frozenset({"obj", "off", "ply", "stl", "svg", "wkt"})
+
+
+def _check_holds_tets(meshio, path: str, T: np.ndarray) -> None:
+    """MeshFileError if ``T`` holds tets and ``path``'s extension names a surface format
+    (the one rule :func:`write` and the commands' output checks follow)."""
+    name = os.path.basename(path).lower()
+    ext = max((e for e in meshio.extension_to_filetypes if name.endswith(e)), key=len,
+              default=None)
+    formats = meshio.extension_to_filetypes.get(ext, ())
+    if T.shape[1] == 4 and formats and set(formats) <= _SURFACE_FORMATS:
+        raise MeshFileError(
+            f"{path}: not a mesh format that holds tets ({ext} is meshio's "
+            f"{'/'.join(formats)}, a surface format); write .vtu, .vtk, .msh, .mesh, .ele "
+            "or another volume format of meshio")
+
+
 def write(path, V, T, *, cell_data=None, point_data=None) -> None:
     """Write a tet (or triangle) mesh with optional per-cell / per-vertex arrays.
 
@@ -313,14 +412,19 @@ def write(path, V, T, *, cell_data=None, point_data=None) -> None:
     cell_data : dict of name -> (m,) or (m, k) array-like, optional
         E.g. the minimum edge weight per tet, or a non-Delaunay flag (the paper's Fig. 7).
     point_data : dict of name -> (n,) or (n, k) array-like, optional
-        E.g. the dual (circumcentric) masses.
+        E.g. the dual (circumcentric) masses. Data values are bool, integer or real
+        numbers, written as given (NaN and inf too: they are the caller's values).
 
     Raises
     ------
     ShapeError, DtypeError, IndexRangeError
-        Bad ``V`` / ``T``, or data with the wrong number of rows.
+        Bad ``V`` / ``T``, or data with the wrong number of rows or not numeric.
+    OptionError
+        ``point_data`` or ``cell_data`` not a dict.
     MeshFileError
-        meshio cannot write that format.
+        meshio cannot write that format, or it is a surface format (``.stl``, ``.off``,
+        ``.ply``, ``.obj``, ...) and ``T`` holds tets, which meshio would drop: refused
+        before anything is written.
 
     Examples
     --------
@@ -330,7 +434,8 @@ def write(path, V, T, *, cell_data=None, point_data=None) -> None:
     >>> tetlap.io.write("ball.vtu", V, T, cell_data={"min_weight": W.min(axis=1)})  # doctest: +SKIP
     """
     mesh = to_meshio(V, T, point_data=point_data, cell_data=cell_data)
-    path = os.fspath(path)
+    path = os.fsdecode(path)
+    _check_holds_tets(_meshio(), path, mesh.cells[0].data)
     try:
         with contextlib.redirect_stdout(sys.stderr):
             mesh.write(path)
@@ -366,7 +471,9 @@ def to_pyvista(V, T, point_data=None, cell_data=None):
     Raises
     ------
     ShapeError, DtypeError, IndexRangeError
-        Bad ``V`` / ``T``, ``d > 3``, or data with the wrong number of rows.
+        Bad ``V`` / ``T``, ``d > 3``, or data with the wrong number of rows or not numeric.
+    OptionError
+        ``point_data`` or ``cell_data`` not a dict.
 
     Examples
     --------

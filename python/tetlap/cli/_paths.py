@@ -100,8 +100,8 @@ def mesh_file(path, flag: str, point_data: tuple[str, ...] = ()) -> None:
     """:func:`output_file` for a tet mesh written by :func:`tetlap.io.write` in the format
     of its extension, with the ``point_data`` arrays (names) the command adds: one tet is
     written and, where meshio reads the format back, read back. A format that meshio
-    cannot write, or whose writer warns (a surface format such as .stl, .off or .ply would
-    drop the tets), or that reads back without the tet, is refused."""
+    cannot write or that :func:`tetlap.io.write` refuses (a surface format such as .stl,
+    .off or .ply would drop the tets), or that reads back without the tet, is refused."""
     import io as text
 
     import numpy as np
@@ -113,23 +113,23 @@ def mesh_file(path, flag: str, point_data: tuple[str, ...] = ()) -> None:
     data = {name: np.zeros(len(V)) for name in point_data} or None
 
     def write(probe):
-        said = text.StringIO()
-        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+        quiet = text.StringIO()
+        with contextlib.redirect_stdout(quiet), contextlib.redirect_stderr(quiet):
             try:
                 io.write(probe, V, T, point_data=data)
             except MeshFileError as e:
-                reason = str(e).split(" could not write it ", 1)[-1]
-                raise MeshFileError("not a mesh format meshio writes tets in "
-                                    + reason.replace(os.fspath(probe), pathlib.Path(path).name)
+                reason = str(e).removeprefix(f"{os.fspath(probe)}: ")
+                reason = reason.split(" could not write it ", 1)[-1]
+                if not reason.startswith("not a mesh format"):
+                    reason = "not a mesh format meshio writes tets in " + reason
+                raise MeshFileError(reason.replace(os.fspath(probe), pathlib.Path(path).name)
                                     ) from None
-            warning = " ".join(said.getvalue().split())
             try:
                 _, back = io.read(probe)
             except TetlapError:
                 back = None  # not read back (no reader, or nothing written)
-        if warning or (back is not None and back.shape != T.shape):
-            raise MeshFileError("not a mesh format that holds tets (meshio: "
-                                f"{warning or 'the tets were not written'})")
+        if back is not None and back.shape != T.shape:
+            raise MeshFileError("not a mesh format that holds tets (the tets were not written)")
 
     output_file(path, flag, write)
 
