@@ -257,11 +257,12 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
     count and any load, unless ``time_limit`` is given. Inputs are not modified.
 
     Vertices in no tet take no part (their weight is 0). The mesh of the used vertices is
-    computed in units of a power of two when its bounding box is outside ``2^-64 ..
-    2^64`` (exact; the weights are returned in the caller's units, times ``scale^2``), so
-    the answer does not depend on the unit; weights beyond the float64 range in the
-    caller's units (coordinates beyond about ``1e154`` or below ``1e-154``) raise
-    :class:`tetlap.NonFiniteError`.
+    computed in units of a power of two when its bounding box is outside
+    ``2^-64 .. 2^64`` (the geometric mean of its shortest and longest edge; exact; the
+    weights are returned in the caller's units, times ``scale^2``), so the answer does not
+    depend on the unit; weights beyond the float64 range in the caller's units, or a mesh
+    whose edges span too many orders of magnitude for weights (a needle of 1e300 on a
+    unit base), raise :class:`tetlap.NonFiniteError`.
 
     Cost: besides the budgeted iterations, every call computes the face conditions and
     checks ``w = 0`` (in the core, one pass each); a mesh with cospherical faces solves one
