@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import tetlap
@@ -168,9 +168,11 @@ def test_fuzz_any_scale_gives_finite_operators_or_a_documented_error(exponent, k
 @settings(max_examples=60, deadline=None)
 @given(log_ratio=st.floats(-170, 0), seed=st.integers(0, 2**16),
        kind=st.sampled_from(["primal", "dual"]))
+@example(log_ratio=-8.0, seed=431, kind="dual")     # found by Hypothesis: 1.8e-13
 def test_fuzz_extreme_anisotropy_keeps_row_sums_and_linear_precision(log_ratio, seed, kind):
-    """A grid squashed along one axis by up to 1e-170: rows still sum to zero and linear
-    functions are still reproduced at interior vertices (relative to the row scale), or,
+    """A grid squashed along one axis by up to 1e-170: rows still sum to zero (to 1e-12 of
+    their largest entry, the stated limit) and linear functions are still reproduced at
+    interior vertices (relative to the row scale), or,
     when a flat tet's own dual weights leave the float64 range (their size grows like the
     inverse square of the flatness: beyond ~1e-150), a documented error."""
     V, T = tetlap.meshes.cube(3, jitter=0.15, seed=seed % 97)
@@ -182,7 +184,10 @@ def test_fuzz_extreme_anisotropy_keeps_row_sums_and_linear_precision(log_ratio, 
         return
     assert np.isfinite(L.data).all()
     scale = np.abs(L).max(axis=1).toarray().ravel()
-    assert (np.abs(L.sum(axis=1)) <= 1e-13 * scale).all()
+    # the stated limit (README, Accuracy): rows sum to zero within 1e-12 of their largest
+    # entry; the dual of seed 431 squashed by 1e-8 has 1.8e-13 (tets' weights of either
+    # sign on an edge: the diagonal's grouping of the sums rounds apart from the row's)
+    assert (np.abs(L.sum(axis=1)) <= 1e-12 * scale).all()
     inner = tetlap.diagnostics.interior_vertices(T, len(V))
     LV = L @ V
     for axis in range(3):
