@@ -156,12 +156,9 @@ def condition_bound(A, x: np.ndarray, b: np.ndarray) -> float:
         return 0.0
     d = np.abs(A.diagonal())
     s = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
-    A = sp.csr_array(A)
-    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
-    scaled = np.zeros(A.shape[0])
-    np.add.at(scaled, rows, np.abs(A.data) * s[rows] * s[A.indices])
+    norm = float((s * (abs(sp.csr_array(A)) @ s)).max())     # |S A S|_inf, one product
     x, b = x.reshape(len(b), -1), b.reshape(len(b), -1)
-    top = scaled.max() * np.abs(x / s[:, None]).max(axis=0)
+    top = norm * np.abs(x / s[:, None]).max(axis=0)
     bottom = np.abs(b * s[:, None]).max(axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         return float(np.max(np.where(bottom > 0, top / np.where(bottom > 0, bottom, 1.0), 0.0)))
