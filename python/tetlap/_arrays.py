@@ -206,6 +206,23 @@ def matrix(A, n: int | None = None, name: str = "L", finite: bool = True) -> sp.
     return A
 
 
+def laplacian(L, n: int | None = None, name: str = "L", finite: bool = True) -> sp.csr_array:
+    """``L`` checked as :func:`matrix` does, and refused with an :class:`OptionError` when
+    its sign says it is the stiffness ``-L`` (LaPy's, scikit-fem's): a tetlap Laplacian has
+    ``L[i, i] = -sum_j w_ij``, negative wherever the weights sum to more than zero, so a
+    diagonal with no negative entry and a positive one is the other convention."""
+    L = matrix(L, n, name, finite)
+    d = L.diagonal()
+    if d.size and (d >= 0).all() and (d > 0).any():
+        raise OptionError(
+            f"{name} has a non-negative diagonal ({name}[{int(np.argmax(d))}, "
+            f"{int(np.argmax(d))}] = {d.max():.3g}): it is not a tetlap Laplacian, whose "
+            f"diagonal is minus the sum of the edge weights ({name}[i, i] = -sum_j w_ij, "
+            f"negative semidefinite on good meshes); a stiffness matrix K = -L (LaPy, "
+            f"scikit-fem) is passed as -K")
+    return L
+
+
 def vector(x, n: int, name: str) -> np.ndarray:
     """``x`` as a new finite float64 ``(n,)`` array."""
     arr = _as_array(x, name)
