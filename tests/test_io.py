@@ -6,13 +6,12 @@ from __future__ import annotations
 import types
 import warnings
 
+import meshio
 import numpy as np
 import pytest
 
 import tetlap
 import tetlap.io
-
-meshio = pytest.importorskip("meshio")
 
 
 @pytest.fixture
@@ -580,3 +579,26 @@ def test_write_data_must_be_a_dict_of_numeric_arrays(cube, tmp_path):
     tetlap.io.write(tmp_path / "a.vtu", V, T, cell_data={"c": values})
     back = meshio.read(tmp_path / "a.vtu").cell_data["c"][0]
     np.testing.assert_array_equal(back, values)
+
+
+# ---- packaging ------------------------------------------------------------------------
+
+
+def test_meshio_is_a_core_dependency_and_the_io_extra_an_alias():
+    """Reading a mesh file is the main job: ``pip install .`` brings meshio, the README asks
+    for no extra before ``tetlap info MESH``, and ``pip install ".[io]"`` still works."""
+    import pathlib
+    import re
+    import tomllib
+
+    repo = pathlib.Path(__file__).resolve().parent.parent
+    project = tomllib.loads((repo / "pyproject.toml").read_text())["project"]
+    names = lambda requirements: {re.split(r"[<>=!~\[ ;]", r, maxsplit=1)[0] for r in requirements}
+    assert "meshio" in names(project["dependencies"])
+    assert names(project["optional-dependencies"]["io"]) == {"meshio"}
+    for extra, requirements in project["optional-dependencies"].items():
+        assert "meshio" not in names(requirements) or extra == "io", extra
+    readme = (repo / "README.md").read_text()
+    assert 'pip install ".[io' not in readme and ".[io," not in readme
+    for path in pathlib.Path(tetlap.io.__file__).parent.glob("*.py"):
+        assert '".[io]"' not in path.read_text() and "hint('io')" not in path.read_text(), path
