@@ -9,7 +9,7 @@ import pytest
 import tetlap
 import tetlap.io
 from conftest import corpus_mesh
-from tetlap import _dual_cells
+from tetlap.io import _dual_cells
 from test_dual import small_weights
 
 meshio = pytest.importorskip("meshio")

@@ -602,3 +602,36 @@ def test_meshio_is_a_core_dependency_and_the_io_extra_an_alias():
     assert 'pip install ".[io' not in readme and ".[io," not in readme
     for path in pathlib.Path(tetlap.io.__file__).parent.glob("*.py"):
         assert '".[io]"' not in path.read_text() and "hint('io')" not in path.read_text(), path
+
+
+def test_io_is_a_package_split_by_concept_with_the_same_public_names():
+    """``tetlap.io`` is a package of one module per concept (reading, writing, PyVista
+    objects, dual cells), each small; every public name still lives at ``tetlap.io.X`` and
+    ``__all__`` lists exactly them; no module of the package imports the package itself
+    or a module above it (the CLI, the applications)."""
+    import ast
+    import importlib
+    import pathlib
+
+    assert tetlap.io.__all__ == ["read", "from_mesh", "write", "to_meshio", "to_pyvista",
+                                 "edges_to_pyvista", "dual_cells"]
+    folder = pathlib.Path(tetlap.io.__file__).parent
+    assert hasattr(tetlap.io, "__path__") and folder.name == "io"
+    concepts = {"read": "_read", "from_mesh": "_read", "write": "_write",
+                "to_meshio": "_write", "to_pyvista": "_pyvista",
+                "edges_to_pyvista": "_pyvista", "dual_cells": "_dual_cells"}
+    for name in tetlap.io.__all__:
+        assert getattr(tetlap.io, name).__module__ == f"tetlap.io.{concepts[name]}", name
+    lower = {"_arrays", "_extras", "_meshobj", "errors", "dual"}
+    for path in sorted(folder.glob("*.py")):
+        text = path.read_text()
+        assert len(text.splitlines()) <= 400, path.name
+        importlib.import_module(f"tetlap.io.{path.stem}" if path.stem != "__init__" else "tetlap.io")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.ImportFrom) and node.level == 2:
+                assert (node.module or "") in lower or not node.module and all(
+                    a.name in lower for a in node.names), (path.name, node.module)
+            if isinstance(node, ast.ImportFrom) and node.level == 1 and path.stem != "__init__":
+                assert node.module and node.module.startswith("_"), (path.name, node.module)
+            if isinstance(node, ast.Import):
+                assert not any(a.name.startswith("tetlap") for a in node.names), path.name
