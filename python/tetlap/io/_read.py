@@ -12,12 +12,13 @@ import sys
 
 import meshio
 
-from .._meshobj import is_mesh_object, to_arrays
+from .._meshobj import check_options, is_mesh_object, to_arrays
 from ..errors import MeshFileError
 
 
-def from_mesh(obj, cell_type=None):
-    """The vertices and linear tets (or triangles) of a mesh object.
+def from_mesh(obj, cell_type=None, *, cell_data=False):
+    """The vertices and linear tets (or triangles) of a mesh object, and with
+    ``cell_data=True`` the object's per-cell arrays for those tets.
 
     Parameters
     ----------
@@ -29,6 +30,10 @@ def from_mesh(obj, cell_type=None):
         cast to an ``UnstructuredGrid`` first.
     cell_type : None, "tetra" or "triangle"
         None (default): the tets if there are any, else the triangles.
+    cell_data : bool, default False
+        Also return the object's cell data (meshio's ``cell_data``, one array per block;
+        pyvista's ``cell_data``, one array per cell; ``cell_data_dict`` beside cells given
+        as a dict by type).
 
     Returns
     -------
@@ -37,6 +42,14 @@ def from_mesh(obj, cell_type=None):
         shift; tetlap's operators give them empty rows and zero mass).
     T : (m, 4) or (m, 3) int64 ndarray
         The cells in the object's order and orientation (tetlap does not depend on it).
+    data : dict of str -> (m, ...) ndarray, only with ``cell_data=True``
+        Every cell-data array of the object, a copy with its dtype, cut to the kept cells:
+        row ``i`` belongs to ``T[i]`` (blocks of several tet blocks are joined in the
+        object's order, as ``T``'s rows are). The arrays of dropped (lower-dimensional)
+        cells are dropped with them. Values come back as stored, never reinterpreted: a
+        tensor per tet that a file holds as 9 components is ``(m, 9)``, row-major, so
+        ``data[name].reshape(-1, 3, 3)`` gives the ``(m, 3, 3)`` tensors; a ``(m, 3, 3)``
+        array of a mesh object stays ``(m, 3, 3)``.
 
     Raises
     ------
@@ -44,9 +57,12 @@ def from_mesh(obj, cell_type=None):
         Other cells of the kept dimension (hexahedra, wedges or quadratic tets next to tets;
         quads or polygons next to triangles), or no tets or triangles at all (e.g. only
         hexahedra or lines). It is the class ``tetlap.laplacian(V, hexes)`` raises for an
-        ``(m, 8)`` array: the cells have the wrong number of vertices.
+        ``(m, 8)`` array: the cells have the wrong number of vertices. With
+        ``cell_data=True``, a cell-data array without one row per cell of a kept block.
     DtypeError
-        Cell data that is not integer.
+        Cells whose vertex indices are not integers.
+    OptionError
+        ``cell_type`` or ``cell_data`` not one of the values above.
     EmptyMeshError
         No cells.
     TypeError
@@ -60,7 +76,7 @@ def from_mesh(obj, cell_type=None):
 
     Examples
     --------
-    >>> import meshio, tetlap, tetlap.io
+    >>> import meshio, numpy as np, tetlap, tetlap.io
     >>> V, T = tetlap.meshes.cube(2)
     >>> mesh = meshio.Mesh(V, [("tetra", T)])
     >>> V2, T2 = tetlap.io.from_mesh(mesh)
@@ -68,9 +84,18 @@ def from_mesh(obj, cell_type=None):
     ((27, 3), (48, 4), 'int64')
     >>> L = tetlap.laplacian(*tetlap.io.from_mesh(mesh), kind="dual")
 
+    Region tags and tensors come with ``cell_data=True``, one row per tet:
+
+    >>> K = np.broadcast_to(np.diag([1.0, 2.0, 3.0]).ravel(), (len(T), 9))
+    >>> tagged = meshio.Mesh(V, [("tetra", T)], cell_data={"region": [np.arange(48) % 2],
+    ...                                                    "K": [K]})
+    >>> V2, T2, data = tetlap.io.from_mesh(tagged, cell_data=True)
+    >>> data["region"][:4].tolist(), data["K"].shape, data["K"].reshape(-1, 3, 3).shape
+    ([0, 1, 0, 1], (48, 9), (48, 3, 3))
+
     A pyvista grid goes the same way (see :func:`to_pyvista`).
     """
-    return to_arrays(obj, cell_type, stacklevel=2)
+    return to_arrays(obj, cell_type, cell_data=cell_data, stacklevel=2)
 
 
 #: The keywords of the formats whose headers declare counts of records (the one or two
@@ -174,8 +199,9 @@ def _check_read_counts(path: str, mesh) -> None:
                                     f"({keyword}), meshio read {read[keyword]}")
 
 
-def read(path, cell_type=None):
-    """Read the vertices and linear tets (or triangles) of a mesh file with meshio.
+def read(path, cell_type=None, *, cell_data=False):
+    """Read the vertices and linear tets (or triangles) of a mesh file with meshio, and
+    with ``cell_data=True`` the file's per-cell arrays for those tets.
 
     Parameters
     ----------
@@ -185,6 +211,10 @@ def read(path, cell_type=None):
         is passed to :func:`from_mesh`.
     cell_type : None, "tetra" or "triangle"
         None (default): the tets if there are any, else the triangles.
+    cell_data : bool, default False
+        Also return the file's cell data: region tags (gmsh's ``"gmsh:physical"`` and
+        ``"gmsh:geometrical"``, Medit's ``"medit:ref"``, a ``.vtu``'s named arrays) and
+        per-tet fields such as conductivity tensors.
 
     Returns
     -------
@@ -192,7 +222,15 @@ def read(path, cell_type=None):
         All points of the file (unreferenced vertices are kept, so indices never shift;
         tetlap's operators give them empty rows and zero mass).
     T : (m, 4) or (m, 3) int64 ndarray
-        The file's cells and orientation (tetlap does not depend on it).
+        The file's cells in the order read, and their orientation (tetlap does not depend
+        on it).
+    data : dict of str -> (m, ...) ndarray, only with ``cell_data=True``
+        Every cell-data array meshio read, under meshio's name, with its dtype: row ``i``
+        belongs to ``T[i]`` (see :func:`from_mesh`). A tensor per tet stored as 9
+        components (a ``.vtu`` array, gmsh ``$ElementData``) comes back as ``(m, 9)``,
+        row-major: ``data[name].reshape(-1, 3, 3)`` gives ``(m, 3, 3)``. The data of the
+        dropped lower-dimensional cells (a ``.msh`` file's boundary triangles) is not
+        returned.
 
     Raises
     ------
@@ -207,7 +245,10 @@ def read(path, cell_type=None):
         meshio's own ``sys.exit`` on some malformed files is caught: it never ends the
         program.
     ShapeError, EmptyMeshError
-        The file holds no usable cells; see :func:`from_mesh`.
+        The file holds no usable cells, or (``cell_data=True``) a cell-data array without a
+        row per cell; see :func:`from_mesh`.
+    OptionError
+        ``cell_type`` or ``cell_data`` not one of the values above.
 
     Warns
     -----
@@ -226,10 +267,13 @@ def read(path, cell_type=None):
     >>> import tetlap.io
     >>> V, T = tetlap.io.read("part.msh")  # doctest: +SKIP
     >>> V, T = tetlap.io.read("deer.ele")  # TetGen .node/.ele  # doctest: +SKIP
+    >>> V, T, data = tetlap.io.read("head.msh", cell_data=True)  # doctest: +SKIP
+    >>> regions = data["gmsh:physical"]          # (m,) int, one tag per tet  # doctest: +SKIP
     """
+    check_options(cell_type, cell_data)
     if not isinstance(path, (str, bytes, os.PathLike)):
         if is_mesh_object(path):
-            return to_arrays(path, cell_type, stacklevel=2)
+            return to_arrays(path, cell_type, cell_data=cell_data, stacklevel=2)
         raise TypeError(f"read takes a file path or a mesh object, got {type(path).__name__}")
     path = os.fsdecode(path)
     if not os.path.exists(path):
@@ -255,5 +299,5 @@ def read(path, cell_type=None):
     if printed:
         print(printed, file=sys.stderr)
     _check_read_counts(path, mesh)
-    return to_arrays(mesh, cell_type, source=path, stacklevel=2)
+    return to_arrays(mesh, cell_type, cell_data=cell_data, source=path, stacklevel=2)
 
