@@ -6,7 +6,7 @@ Reading: :func:`read` takes a file in any format meshio reads (``.msh``, ``.mesh
 ``points`` and cells. Both return ``(V, T)``: the linear tets if there are any, else the
 triangles. Writing: :func:`write` (a file), :func:`to_meshio`, :func:`to_pyvista` and
 :func:`edges_to_pyvista` (e.g. the negative-weight edges) for plotting; :func:`dual_cells`
-(the Voronoi / power cells as VTK polyhedra).
+(the Voronoi / power cells as polyhedra with shared faces, written to ``.vtu`` / ``.vtk``).
 
 meshio comes with tetlap; :func:`to_pyvista` and :func:`edges_to_pyvista` need the
 optional ``pyvista`` (``pip install ".[pyvista]"``).
@@ -23,10 +23,10 @@ True
 
 from __future__ import annotations
 
-from ._dual_cells import dual_cells
+from ._dual_cells import DualCells, dual_cells
 from ._pyvista import edges_to_pyvista, to_pyvista
 from ._read import from_mesh, read
 from ._write import to_meshio, write
 
 __all__ = ["read", "from_mesh", "write", "to_meshio", "to_pyvista", "edges_to_pyvista",
-           "dual_cells"]
+           "dual_cells", "DualCells"]
