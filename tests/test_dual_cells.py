@@ -31,6 +31,8 @@ def meshes():
     yield "Kuhn", (*tetlap.meshes.cube(3), None)
     yield "folded", (*FOLDED, None)
     yield "pinched", (*PINCHED, None)
+    V, T = tetlap.meshes.cube(2, jitter=0.2, seed=4)
+    yield "a vertex in no tet", (np.vstack([[5.0, 5, 5], V]), T + 1, None)
 
 
 MESHES = [pytest.param(*mesh, id=name) for name, mesh in meshes()]

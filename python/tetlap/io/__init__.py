@@ -4,7 +4,7 @@ Reading: :func:`read` takes a file in any format meshio reads (``.msh``, ``.mesh
 ``.vtu``, ``.vtk``, TetGen ``.ele``, ...) or a mesh object; :func:`from_mesh` takes a
 ``meshio.Mesh``, a ``pyvista.UnstructuredGrid`` (or any pyvista dataset) or any object with
 ``points`` and cells. Both return ``(V, T)``: the linear tets if there are any, else the
-triangles. Writing: :func:`write` (a file), :func:`to_meshio`, :func:`to_pyvista` and
+triangles; with ``cell_data=True`` also the per-tet arrays (region tags, tensors). Writing: :func:`write` (a file), :func:`to_meshio`, :func:`to_pyvista` and
 :func:`edges_to_pyvista` (e.g. the negative-weight edges) for plotting; :func:`dual_cells`
 (the Voronoi / power cells as polyhedra with shared faces, written to ``.vtu`` / ``.vtk``).
 
