@@ -3,7 +3,6 @@ and its errors."""
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -14,10 +13,6 @@ from tetlap import cli
 from tetlap.cli import assemble
 
 from conftest import run_tetlap as run
-
-
-
-
 
 
 def test_assemble_writes_load_npz_files(tmp_path):
@@ -64,8 +59,9 @@ def test_a_mass_with_non_positive_entries_is_a_warning_naming_the_mixed_mass(tmp
         err = capsys.readouterr().err
         if warned:
             assert err == (f"tetlap: warning: M (circumcentric) has {bad} non-positive diagonal "
-                           "entries at vertices of the mesh (dual cells of a non-Delaunay "
-                           "mesh); --mass mixed gives positive dual masses\n")
+                           "entries at vertices of the mesh (circumcentres outside their "
+                           "elements: a mesh that is not Delaunay, or obtuse elements at its "
+                           "boundary); --mass mixed gives positive dual masses\n")
         else:
             assert err == ""
 
@@ -123,3 +119,72 @@ def test_a_bad_laplacian_is_refused_before_the_mesh_is_read(value, monkeypatch, 
     assert cli.main(["assemble", "m.vtu", "-o", "x", f"--laplacian={value}"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("tetlap: error: --laplacian: ") and err.count("\n") == 1
+
+
+def _triangle_files(tmp_path):
+    """``{name: (path, V, T)}``: a plane Delaunay triangulation with a vertex in no
+    triangle (2-D points), and the boundary surface of a cube (triangles in R^3)."""
+    import scipy.spatial
+
+    rng = np.random.default_rng(5)
+    P = rng.random((60, 2))
+    plane = (np.vstack([P, [[3.0, 3.0]]]), scipy.spatial.Delaunay(P).simplices.astype(np.int64))
+    V, T = tetlap.meshes.cube(3, jitter=0.1, seed=2)
+    surface = (V, tetlap.diagnostics.boundary_faces(V, T))
+    files = {}
+    for name, (V, T) in {"plane": plane, "surface": surface}.items():
+        path = tmp_path / f"{name}.vtu"
+        tetlap.io.write(path, V, T)
+        files[name] = (path, *tetlap.io.read(path))
+    return files
+
+
+@pytest.mark.parametrize("mesh", ["tets", "plane", "surface"])
+@pytest.mark.parametrize("laplacian", ["primal", "dual", "0.25"])
+def test_every_flag_combination_on_tets_and_triangles(mesh, laplacian, cube_file, tmp_path,
+                                                       capsys):
+    """Every --mass, --degenerate and --threads with every kind of --laplacian, on tets, on
+    plane triangles and on a triangulated surface in R^3: exit 0, the two files hold
+    ``tetlap.operators``' matrices bit for bit, and the warning counts the non-positive
+    masses of vertices in an element (a triangle mesh wrote both files, then exited 2)."""
+    path, V, T = cube_file if mesh == "tets" else _triangle_files(tmp_path)[mesh]
+    capsys.readouterr()
+    t = float(laplacian) if laplacian[0].isdigit() else laplacian
+    for mass in ("barycentric", "circumcentric", "mixed", "fem"):
+        for degenerate in ("raise", "skip"):
+            for threads in ([], ["--threads", "1"], ["--threads", "2"]):
+                out = tmp_path / f"{mass}-{degenerate}-{len(threads)}"
+                code = cli.main(["assemble", str(path), "-o", str(out), "--laplacian", laplacian,
+                                 "--mass", mass, "--degenerate", degenerate, *threads])
+                printed = capsys.readouterr()
+                assert code == 0, printed.err
+                L, M = tetlap.operators(V, T, t, mass, degenerate=degenerate)
+                assert (sp.load_npz(f"{out}.npz") != L).nnz == 0
+                assert (sp.load_npz(f"{out}.mass.npz") != M).nnz == 0
+                assert printed.out.splitlines()[1] == f"M ({mass}) -> {out}.mass.npz"
+                used = np.zeros(len(V), dtype=bool)
+                used[T.ravel()] = True
+                assert (tetlap.diagnostics.referenced_vertices(V, T) == used).all()
+                bad = int((M.diagonal()[used] <= 0).sum())
+                assert (f"has {bad} non-positive" in printed.err) == (bad > 0), printed.err
+                assert printed.err == "" or bad > 0
+
+
+@pytest.mark.parametrize("mesh", ["tets", "triangles"])
+def test_a_flat_element_is_refused_before_any_file_or_skipped(mesh, cube_file, tmp_path,
+                                                               capsys):
+    path, V, T = cube_file
+    if mesh == "triangles":
+        T = tetlap.diagnostics.boundary_faces(V, T)
+        flat = [[0, 1, 2]]                 # three vertices on one edge of the cube
+    else:
+        flat = [[0, 4, 16, 20]]            # four vertices on z = 0
+    flat_file = tmp_path / "flat.vtu"
+    tetlap.io.write(flat_file, V, np.vstack([T, flat]))
+    assert cli.main(["assemble", str(flat_file), "-o", str(tmp_path / "y")]) == 2
+    assert "degenerate" in capsys.readouterr().err
+    assert not list(tmp_path.glob("y*"))
+    assert cli.main(["assemble", str(flat_file), "-o", str(tmp_path / "y"),
+                     "--degenerate", "skip"]) == 0
+    L = tetlap.laplacian(V, np.vstack([T, flat]), degenerate="skip")
+    assert (sp.load_npz(tmp_path / "y.npz") != L).nnz == 0

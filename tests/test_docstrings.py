@@ -60,7 +60,8 @@ def extras(test: doctest.DocTest) -> list[str]:
 
 def test_discovery_finds_every_module_with_examples():
     assert KNOWN <= set(MODULES), sorted(KNOWN - set(MODULES))
-    assert "tetlap.io.to_pyvista" in DOCSTRINGS and extras(DOCSTRINGS["tetlap.io.to_pyvista"])
+    pyvista = DOCSTRINGS["tetlap.io._pyvista.to_pyvista"]  # tetlap.io.to_pyvista
+    assert extras(pyvista)
 
 
 @pytest.fixture
@@ -88,10 +89,14 @@ def test_docstring_examples_run(name, numpy_defaults, tmp_path, monkeypatch):
 
 
 def test_the_io_examples_run_in_full(numpy_defaults, tmp_path, monkeypatch):
-    """The io module's examples, pyvista ones included: more than 10 of them run."""
+    """The io package's examples, pyvista ones included: more than 10 of them run."""
     pytest.importorskip("pyvista")
     import tetlap.io
 
     monkeypatch.chdir(tmp_path)
-    result = doctest.testmod(tetlap.io, optionflags=doctest.ELLIPSIS)
-    assert result.attempted > 10 and result.failed == 0
+    attempted = 0
+    for name in ["tetlap.io"] + [f"tetlap.io.{m.name}" for m in pkgutil.iter_modules(tetlap.io.__path__)]:
+        result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
+        assert result.failed == 0, name
+        attempted += result.attempted
+    assert attempted > 10

@@ -258,7 +258,9 @@ def test_every_install_hint_is_the_readme_s(monkeypatch):
     repo = pathlib.Path(__file__).resolve().parent.parent  # the checkout; CI installs a wheel
     extras = tomllib.loads((repo / "pyproject.toml").read_text())["project"]["optional-dependencies"]
     readme = (repo / "README.md").read_text()
-    assert 'pip install ".[io]"' in readme and "tetlap[" not in readme
+    assert 'pip install ".[experiments,' in readme and "tetlap[" not in readme
+    for extra in re.findall(r'pip install "\.\[([\w,]+)\]"', readme):
+        assert set(extra.split(",")) <= set(extras), extra
     for path in root.rglob("*.py"):
         text = path.read_text()
         assert "pip install 'tetlap[" not in text, path  # not the README's (nor on PyPI)

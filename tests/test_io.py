@@ -6,13 +6,12 @@ from __future__ import annotations
 import types
 import warnings
 
+import meshio
 import numpy as np
 import pytest
 
 import tetlap
 import tetlap.io
-
-meshio = pytest.importorskip("meshio")
 
 
 @pytest.fixture
@@ -580,3 +579,167 @@ def test_write_data_must_be_a_dict_of_numeric_arrays(cube, tmp_path):
     tetlap.io.write(tmp_path / "a.vtu", V, T, cell_data={"c": values})
     back = meshio.read(tmp_path / "a.vtu").cell_data["c"][0]
     np.testing.assert_array_equal(back, values)
+
+
+# ---- cell data (region tags, tensors) ---------------------------------------------------
+
+
+def _regions_and_tensors(cube):
+    """Three regions of the cube's tets (tags 1, 2, 3, interleaved) and an SPD tensor per
+    tet as 9 components; the tets of each region form one block, as gmsh writes them."""
+    V, T = cube
+    m = len(T)
+    region = np.arange(m) % 3 + 1
+    A = np.random.default_rng(4).standard_normal((m, 3, 3))
+    K = (A @ A.transpose(0, 2, 1) + 3 * np.eye(3)).reshape(m, 9)
+    by_region = [region == r for r in (1, 2, 3)]
+    return region, K, by_region
+
+
+@pytest.mark.parametrize("fmt, name, tags, tensor, triangles", [
+    ("gmsh22", "m.msh", ("gmsh:physical", "gmsh:geometrical"), False, True),
+    ("gmsh22", "k.msh", ("gmsh:physical", "gmsh:geometrical"), True, False),
+    ("gmsh", "m41.msh", (), True, False),  # gmsh 4.1 tags entities (blocks), not tets
+    ("vtu", "m.vtu", ("region",), True, True),
+    ("vtk", "m.vtk", ("region",), True, True),
+    ("medit", "m.mesh", ("medit:ref",), False, True),
+])
+def test_read_returns_the_cell_data_of_the_tets_in_their_order(cube, tmp_path, fmt, name, tags,
+                                                              tensor, triangles):
+    """Region tags and 9-component tensors written by meshio come back with one row per
+    tet, row i for T[i], across several tet blocks (gmsh's regions) and without the rows
+    of the boundary triangles a file holds before them."""
+    V, T = cube
+    region, K, by_region = _regions_and_tensors(cube)
+    B = tetlap.diagnostics.boundary_faces(V, T)
+    blocks = [("tetra", T[r]) for r in by_region] if fmt != "gmsh" else [("tetra", T)]
+    per_block = (lambda a: [a[r] for r in by_region]) if fmt != "gmsh" else (lambda a: [a])
+    data = {tag: per_block(region + 10 * k) for k, tag in enumerate(tags)}
+    if tensor:
+        data["K"] = per_block(K)
+    if triangles:  # boundary triangles first, with their own values
+        blocks = [("triangle", B)] + blocks
+        data = {key: [np.full((len(B), *a[0].shape[1:]), -7, dtype=a[0].dtype)] + a
+                for key, a in data.items()}
+    meshio.write(tmp_path / name, meshio.Mesh(V, blocks, cell_data=data), file_format=fmt)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the dropped triangles
+        V2, T2, got = tetlap.io.read(tmp_path / name, cell_data=True)
+        assert_same((V, np.concatenate([b for kind, b in blocks if kind == "tetra"])),
+                    tetlap.io.read(tmp_path / name))
+    order = np.concatenate([np.flatnonzero(r) for r in by_region]) if fmt != "gmsh" else \
+        np.arange(len(T))
+    np.testing.assert_array_equal(T2, T[order])
+    assert set(tags) | ({"K"} if tensor else set()) <= set(got)
+    for k, tag in enumerate(tags):
+        assert got[tag].shape == (len(T),)
+        np.testing.assert_array_equal(got[tag], (region + 10 * k)[order])
+    if tensor:
+        assert got["K"].shape == (len(T), 9) and got["K"].dtype == np.float64  # native order
+        np.testing.assert_array_equal(got["K"].reshape(-1, 3, 3), K[order].reshape(-1, 3, 3))
+
+
+def test_from_mesh_cell_data_of_pyvista_and_look_alikes(cube):
+    """A pyvista grid's cell data (one array over all cells, tets among other cells) and
+    a look-alike's ``cell_data_dict`` (per type) come back for the tets only; a (m, 3, 3)
+    array stays (m, 3, 3); everything is a copy."""
+    V, T = cube
+    region, K, _ = _regions_and_tensors(cube)
+    K3 = K.reshape(-1, 3, 3)
+    obj = types.SimpleNamespace(points=V, cells_dict={"line": np.array([[0, 1]]), "tetra": T},
+                                cell_data_dict={"region": {"line": [5], "tetra": region},
+                                                "K": {"line": np.zeros((1, 3, 3)), "tetra": K3}})
+    with pytest.warns(UserWarning, match="line"):
+        V2, T2, got = tetlap.io.from_mesh(obj, cell_data=True)
+    np.testing.assert_array_equal(got["region"], region)
+    np.testing.assert_array_equal(got["K"], K3)
+    got["K"][0] = 0
+    assert (K3[0] != 0).all()
+    pv = pytest.importorskip("pyvista")
+    cells = np.concatenate([np.r_[3, B] for B in tetlap.diagnostics.boundary_faces(V, T)[:5]]
+                           + [np.r_[4, t] for t in T])
+    types_ = np.r_[np.full(5, pv.CellType.TRIANGLE), np.full(len(T), pv.CellType.TETRA)]
+    grid = pv.UnstructuredGrid(cells, types_, V)
+    grid.cell_data["region"] = np.r_[np.full(5, -1), region]
+    grid.cell_data["K"] = np.vstack([np.zeros((5, 9)), K])
+    with pytest.warns(UserWarning, match="triangle"):
+        V2, T2, got = tetlap.io.from_mesh(grid, cell_data=True)
+    assert_same(cube, (V2, T2))
+    np.testing.assert_array_equal(got["region"], region)
+    np.testing.assert_array_equal(got["K"], K)
+
+
+def test_cell_data_errors_and_the_default(cube, tmp_path):
+    V, T = cube
+    region, _, _ = _regions_and_tensors(cube)
+    mesh = meshio.Mesh(V, [("tetra", T)], cell_data={"region": [region]})
+    assert len(tetlap.io.from_mesh(mesh)) == 2               # (V, T) without the keyword
+    assert len(tetlap.io.from_mesh(mesh, cell_data=False)) == 2
+    for bad in ("yes", 1, None):
+        with pytest.raises(tetlap.OptionError, match="cell_data must be True or False"):
+            tetlap.io.from_mesh(mesh, cell_data=bad)
+        with pytest.raises(tetlap.OptionError, match="cell_data"):  # before the file is read
+            tetlap.io.read(tmp_path / "missing.vtu", cell_data=bad)
+    short = types.SimpleNamespace(points=V, cells=[("tetra", T)], cell_data={"region": [region[:-1]]})
+    with pytest.raises(tetlap.ShapeError, match="'region' does not hold one row per cell"):
+        tetlap.io.from_mesh(short, cell_data=True)
+    _, _, none = tetlap.io.from_mesh(meshio.Mesh(V, [("tetra", T)]), cell_data=True)
+    assert none == {}
+
+
+# ---- packaging ------------------------------------------------------------------------
+
+
+def test_meshio_is_a_core_dependency_and_the_io_extra_an_alias():
+    """Reading a mesh file is the main job: ``pip install .`` brings meshio, the README asks
+    for no extra before ``tetlap info MESH``, and ``pip install ".[io]"`` still works."""
+    import pathlib
+    import re
+    import tomllib
+
+    repo = pathlib.Path(__file__).resolve().parent.parent
+    project = tomllib.loads((repo / "pyproject.toml").read_text())["project"]
+    names = lambda requirements: {re.split(r"[<>=!~\[ ;]", r, maxsplit=1)[0] for r in requirements}
+    assert "meshio" in names(project["dependencies"])
+    assert names(project["optional-dependencies"]["io"]) == {"meshio"}
+    for extra, requirements in project["optional-dependencies"].items():
+        assert "meshio" not in names(requirements) or extra == "io", extra
+    readme = (repo / "README.md").read_text()
+    assert 'pip install ".[io' not in readme and ".[io," not in readme
+    for path in pathlib.Path(tetlap.io.__file__).parent.glob("*.py"):
+        assert '".[io]"' not in path.read_text() and "hint('io')" not in path.read_text(), path
+
+
+def test_io_is_a_package_split_by_concept_with_the_same_public_names():
+    """``tetlap.io`` is a package of one module per concept (reading, writing, PyVista
+    objects, dual cells), each small; every public name still lives at ``tetlap.io.X`` and
+    ``__all__`` lists exactly them; no module of the package imports the package itself
+    or a module above it (the CLI, the applications)."""
+    import ast
+    import importlib
+    import pathlib
+
+    assert tetlap.io.__all__ == ["read", "from_mesh", "write", "to_meshio", "to_pyvista",
+                                 "edges_to_pyvista", "dual_cells", "DualCells"]
+    folder = pathlib.Path(tetlap.io.__file__).parent
+    assert hasattr(tetlap.io, "__path__") and folder.name == "io"
+    concepts = {"read": "_read", "from_mesh": "_read", "write": "_write",
+                "to_meshio": "_write", "to_pyvista": "_pyvista",
+                "edges_to_pyvista": "_pyvista", "dual_cells": "_dual_cells",
+                "DualCells": "_dual_cells"}
+    for name in tetlap.io.__all__:
+        assert getattr(tetlap.io, name).__module__ == f"tetlap.io.{concepts[name]}", name
+    lower = {"_arrays", "_extras", "_meshobj", "errors", "dual", "_dual_faces", "_float_range"}
+    for path in sorted(folder.glob("*.py")):
+        text = path.read_text()
+        assert len(text.splitlines()) <= 400, path.name
+        importlib.import_module(f"tetlap.io.{path.stem}" if path.stem != "__init__" else "tetlap.io")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.ImportFrom) and node.level == 2:
+                assert (node.module or "") in lower or not node.module and all(
+                    a.name in lower for a in node.names), (path.name, node.module)
+            if isinstance(node, ast.ImportFrom) and node.level == 1 and path.stem != "__init__":
+                names = [node.module] if node.module else [a.name for a in node.names]
+                assert all(m.startswith("_") for m in names), (path.name, names)  # siblings
+            if isinstance(node, ast.Import):
+                assert not any(a.name.startswith("tetlap") for a in node.names), path.name

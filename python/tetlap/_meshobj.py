@@ -1,10 +1,11 @@
 """Mesh objects (meshio, pyvista, look-alikes) to ``(V, T)`` arrays, without importing
 either library unless the object needs it.
 
-An object is read as a list of cell blocks ``(name, dimension, data, count)`` in meshio's
-vocabulary (``"tetra"``, ``"triangle"``, ``"hexahedron"``, ...); VTK cell type ids are
-translated to those names. Then one rule picks the cells: the linear tets if there are any,
-else the triangles; cells of a lower dimension are dropped with a ``UserWarning``; other
+An object is read as a list of cell blocks ``(name, dimension, data, count, where)`` in
+meshio's vocabulary (``"tetra"``, ``"triangle"``, ``"hexahedron"``, ...; VTK cell type ids
+are translated to those names; ``where`` finds the block's rows of the object's cell data).
+Then one rule picks the cells: the linear tets if there are any, else the triangles; cells
+of a lower dimension are dropped with a ``UserWarning``; other
 cells of the kept dimension (hexahedra next to tets, quads next to triangles, quadratic
 tets) are a :class:`tetlap.ShapeError` — the same class as passing an ``(m, 8)`` array as
 ``T`` — because dropping them would leave holes in the mesh.
@@ -17,6 +18,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from . import _options
 from .errors import DtypeError, EmptyMeshError, OptionError, ShapeError
 
 # VTK cell type ids (vtkCellType.h) of the common cells, named as meshio names them.
@@ -114,18 +116,18 @@ def _vtk_blocks(obj, wanted_names):
                 raise ShapeError(f"{_describe(obj)}: a {name} cell with {sizes[sizes != k][0]}"
                                  f" vertices instead of {k}")
             data = connectivity[offsets[cells][:, None] + np.arange(k)]
-        blocks.append((name, dim, data, len(cells)))
+        blocks.append((name, dim, data, len(cells), ("rows", cells)))
     return blocks
 
 
 def _named_blocks(pairs):
     blocks = []
-    for cell_type, data in pairs:
+    for where, (cell_type, data) in enumerate(pairs):
         if isinstance(cell_type, str):
             name, dim = cell_type, _dimension(cell_type)
         else:
             name, dim = _vtk_name(int(cell_type))
-        blocks.append((name, dim, data, len(data)))
+        blocks.append((name, dim, data, len(data), ("list", where)))
     return blocks
 
 
@@ -146,18 +148,59 @@ def _blocks(obj, wanted_names):
     for attr in ("cells_dict", "cells"):
         cells = getattr(obj, attr, None)
         if isinstance(cells, Mapping):
-            return _named_blocks(cells.items())
+            return [(*b[:4], ("dict", cell_type))
+                    for b, cell_type in zip(_named_blocks(cells.items()), cells)]
     raise TypeError(f"{_describe(obj)} is not a mesh object tetlap understands: it needs "
                     "`points` and cells (`cells` as (type, data) blocks, `cells_dict`, or "
                     "pyvista's `celltypes`)")
 
 
-def to_arrays(obj, cell_type=None, *, source: str | None = None, stacklevel: int = 2):
-    """``(V, T)`` of a mesh object: ``V`` (n, d) float64 and ``T`` (m, 4) or (m, 3) int64,
-    both new arrays. See :func:`tetlap.io.from_mesh`."""
-    if cell_type not in _WANTED:
+def _block_rows(data, name: str, block, source: str) -> np.ndarray:
+    """A copy of the rows of the cell-data array ``name`` that belong to ``block`` (in the
+    machine's byte order): by
+    its ``where``, ``("list", k)`` (meshio: one array per block), ``("dict", type)`` (one
+    array per cell type) or ``("rows", indices)`` (pyvista: one array for every cell)."""
+    how, key = block[4]
+    try:
+        rows = np.asarray(data[name])[key] if how == "rows" else data[name][key]
+    except (KeyError, IndexError, TypeError):
+        rows = None
+    rows = np.array(rows, copy=True)
+    rows = rows.astype(rows.dtype.newbyteorder("="), copy=False)  # legacy VTK: big-endian
+    if rows.ndim == 0 or len(rows) != block[3]:
+        raise ShapeError(f"{source}: cell data {name!r} does not hold one row per cell of "
+                         f"its {block[0]} block ({block[3]} cells)")
+    return rows
+
+
+def _cell_data(obj, kept, source: str) -> dict[str, np.ndarray]:
+    """``{name: array}``: the object's cell data, the rows of the ``kept`` blocks in their
+    order (the order of ``T``'s rows)."""
+    by_type = kept[0][4][0] == "dict"
+    data = getattr(obj, "cell_data_dict" if by_type else "cell_data", None) or {}
+    out = {}
+    for name in data.keys():
+        parts = [_block_rows(data, name, block, source) for block in kept]
+        out[str(name)] = np.concatenate(parts) if len(parts) > 1 else parts[0]
+    return out
+
+
+def check_options(cell_type, cell_data) -> str | None:
+    """The meshio name of the cells ``cell_type`` asks for (None: tets, else triangles);
+    OptionError for a ``cell_type`` or ``cell_data`` that is not one of the values
+    :func:`tetlap.io.read` takes."""
+    if not isinstance(cell_type, (str, type(None))) or cell_type not in _WANTED:
         raise OptionError(f"cell_type must be None, 'tetra' or 'triangle', got {cell_type!r}")
-    want = _WANTED[cell_type]
+    _options.flag(cell_data, "cell_data")
+    return _WANTED[cell_type]
+
+
+def to_arrays(obj, cell_type=None, *, cell_data: bool = False, source: str | None = None,
+              stacklevel: int = 2):
+    """``(V, T)`` of a mesh object: ``V`` (n, d) float64 and ``T`` (m, 4) or (m, 3) int64,
+    both new arrays; with ``cell_data=True`` also ``{name: (m, ...) array}``, copies of
+    the object's cell data for the rows of ``T``. See :func:`tetlap.io.from_mesh`."""
+    want = check_options(cell_type, cell_data)
     source = source or _describe(obj)
     if hasattr(obj, "cast_to_unstructured_grid") and not hasattr(obj, "celltypes"):
         obj = obj.cast_to_unstructured_grid()  # pyvista PolyData, ImageData, ...
@@ -193,10 +236,9 @@ def to_arrays(obj, cell_type=None, *, source: str | None = None, stacklevel: int
     if dropped:
         warnings.warn(f"{source}: dropped lower-dimensional cells {dropped}", UserWarning,
                       stacklevel=stacklevel + 1)
+    kept = [b for b in blocks if b[0] == want]
     parts = []
-    for name, _, data, _ in blocks:
-        if name != want:
-            continue
+    for name, _, data, _, _ in kept:
         arr = np.asarray(data)
         if arr.dtype.kind not in "iu":
             raise DtypeError(f"{source}: {name} cells must hold integer vertex indices, got "
@@ -206,4 +248,6 @@ def to_arrays(obj, cell_type=None, *, source: str | None = None, stacklevel: int
                              f"got {arr.shape}")
         parts.append(arr.astype(np.int64))
     T = np.ascontiguousarray(np.concatenate(parts))
+    if cell_data:
+        return V, T, _cell_data(obj, kept, source)
     return V, T

@@ -159,9 +159,9 @@ def boundary_vertices(V, T=None, *, n=None) -> np.ndarray:
 
 
 def referenced_vertices(V, T=None, *, n=None) -> np.ndarray:
-    """Boolean mask (n,) of the vertices that belong to at least one tet (arguments as
-    :func:`boundary_vertices`)."""
-    return _referenced(*_topology(V, T, n))
+    """Boolean mask (n,) of the vertices that belong to at least one element, tet or
+    triangle (arguments as :func:`boundary_vertices`)."""
+    return _referenced(*_topology(V, T, n, n_columns=(3, 4)))
 
 
 def interior_vertices(V, T=None, *, n=None) -> np.ndarray:

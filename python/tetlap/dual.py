@@ -18,22 +18,111 @@ True
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
-from . import _arrays, _core, _sparse
+from . import _arrays, _core, _dual_faces, _sparse
 from ._docs import shared_docs
+from ._dual_faces import _FACES
+from ._dual_faces import outward as _outward  # noqa: F401 (cells, dec)
+from ._float_range import unit_scale
 from .errors import DegenerateElementError
 
-__all__ = ["dual_geometry", "DualGeometry", "OUTSIDE_TOL"]
+__all__ = ["dual_geometry", "DualGeometry", "DualFaces", "OUTSIDE_TOL"]
 
 #: A centre counts as outside its tet when one of its barycentric coordinates is below
 #: ``-OUTSIDE_TOL`` (2^-40, the core's documented accuracy): a centre on a face or an edge
 #: (a right-angled corner, a Kuhn grid) is not flagged for its rounding.
 OUTSIDE_TOL = 2.0**-40
 
-#: The faces of a tet, ``_FACES[l]`` opposite corner ``l``.
-_FACES = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class DualFaces:
+    """The faces of the dual cells, one row each: what a vertex-centred two-point-flux
+    (TPFA) finite-volume code loops over (see :attr:`DualGeometry.dual_faces`).
+
+    Rows ``0 .. E-1`` are the interior faces, row ``k`` the dual face of the edge
+    ``DualGeometry.edges[k]``; then 3 rows per boundary face of the mesh (in the order of
+    ``DualGeometry.faces``, its corners ascending): the piece ``(x_a, c_ab, c_abc, c_ac)``
+    of the face that closes the cell of its corner ``a`` (``c``: the edge's midpoint, or
+    power point, and the face's centre). ``K = E + 3 * (number of boundary faces)``.
+
+    vertices : (K, 2) int64
+        ``(i, j)``: the control volume (vertex) ``i`` the face bounds and ``j`` across it,
+        ``i < j``; ``j = -1`` on the boundary.
+    area : (K,) float64
+        Signed area: for an interior face ``DualGeometry.dual_area`` (bit for bit),
+        negative where the centres around the edge wind backwards (not Delaunay); for a
+        boundary piece its area in the face's plane, negative where the face's centre lies
+        beyond the edges at ``a`` (an obtuse boundary triangle). Their sums per vertex are
+        the circumcentric boundary areas of :func:`tetlap.solve.dual_boundary_areas`.
+    normal : (K, d) float64
+        Unit normal, so that ``area * normal`` is the face's vector area: from ``i``
+        towards ``j`` (``(x_j - x_i) / |x_j - x_i|``: the dual face is orthogonal to its
+        edge) inside, out of the mesh on the boundary.
+    centroid : (K, d) float64
+        The face's centroid (each of its triangles weighted by its signed area); for a face
+        of zero area to rounding (cospherical vertices, as in Kuhn grids), the mean of its
+        triangles' corners.
+    transmissibility : (K,) float64
+        ``area / |x_j - x_i|``: the two-point flux coefficient, ``DualGeometry
+        .transmissibility[k]`` and the dual Laplacian's ``L[i, j]`` (bit for bit); 0 on the
+        boundary, whose pieces carry a prescribed flux (``area * g``), no coupling.
+    edge : (K,) int64
+        The row's edge in ``DualGeometry.edges``; -1 on the boundary.
+    face : (K,) int64
+        The boundary face in ``DualGeometry.faces`` of a boundary row; -1 inside.
+
+    With a flux ``q_k = transmissibility_k (u_j - u_i)`` from ``i`` to ``j`` per interior
+    row and the boundary's ``area_k * g_k`` (``g``: the outward normal derivative), the
+    balance of every control volume is ``sum(into it) - sum(out of it)``: the interior rows
+    give ``L u``. On a mesh whose tets fold over one another (two on the same side of their
+    face), the control volumes count the overlap twice; the fold's pieces carry no flux and
+    are not rows (:func:`tetlap.io.dual_cells` closes the cells with them).
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.sparse as sp, tetlap
+    >>> V, T = tetlap.meshes.ball(300, seed=1)
+    >>> g = tetlap.dual_geometry(V, T)
+    >>> f = g.dual_faces
+    >>> inner = ~f.boundary
+    >>> i, j = f.vertices[inner].T
+    >>> t = f.transmissibility[inner]
+    >>> L = sp.coo_array((np.r_[t, t, -t, -t], (np.r_[i, j, i, j], np.r_[j, i, i, j])),
+    ...                  shape=(len(V), len(V))).tocsr()
+    >>> bool(abs(L - tetlap.laplacian(V, T, "dual")).max() < 1e-12)
+    True
+    >>> b = f.boundary                                  # pieces of the boundary: closed cells
+    >>> closure = np.zeros((len(V), 3))
+    >>> np.add.at(closure, i, f.area[inner, None] * f.normal[inner])
+    >>> np.add.at(closure, j, -f.area[inner, None] * f.normal[inner])
+    >>> np.add.at(closure, f.vertices[b, 0], f.area[b, None] * f.normal[b])
+    >>> bool(abs(closure).max() < 1e-12)
+    True
+    """
+
+    vertices: np.ndarray
+    area: np.ndarray
+    normal: np.ndarray
+    centroid: np.ndarray
+    transmissibility: np.ndarray
+    edge: np.ndarray
+    face: np.ndarray
+
+    @property
+    def boundary(self) -> np.ndarray:
+        """(K,) bool: the rows on the mesh's boundary (``vertices[:, 1] == -1``)."""
+        return self.vertices[:, 1] < 0
+
+    def __len__(self) -> int:
+        return len(self.area)
+
+    def __repr__(self) -> str:
+        return (f"DualFaces({len(self)} faces: {int((~self.boundary).sum())} interior, "
+                f"{int(self.boundary.sum())} on the boundary)")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -99,6 +188,13 @@ class DualGeometry:
         locally Delaunay, or not locally regular with weights); for a boundary face it
         is the distance from the tet's centre to the face's centre, signed the same way.
         ``face_area / dual_length`` is the two-point flux coefficient of the face.
+
+    The faces of the dual cells, for a vertex-centred finite-volume code (computed on
+    first use):
+
+    dual_faces : DualFaces
+        One row per dual face: the two control volumes it separates (-1 for the
+        boundary), its signed area, unit normal, centroid and transmissibility.
     """
 
     edges: np.ndarray
@@ -117,6 +213,33 @@ class DualGeometry:
     face_area: np.ndarray
     face_centres: np.ndarray
     dual_length: np.ndarray
+    _mesh = None  # (V, T, weights), copies, set by dual_geometry: for dual_faces
+
+    @functools.cached_property
+    def dual_faces(self) -> DualFaces:
+        """The faces of the dual cells, one row each (:class:`DualFaces`), computed on
+        first use (two to three times the cost of :func:`dual_geometry` itself) in a frame
+        of about unit edges (a power of two, so any scale is exact)."""
+        if self._mesh is None:
+            raise TypeError("dual_faces needs the mesh: take it from a DualGeometry that "
+                            "tetlap.dual_geometry made, not a copy of one")
+        V, T, w = self._mesh
+        used = np.unique(T)
+        s = unit_scale(V[used], np.searchsorted(used, T))
+        vertices, normal, centroid, edge, face, boundary_area = _dual_faces.table(
+            V / s, None if w is None else w / s**2, T, self.orientation, self.edges,
+            self.edge_length / s, self.faces, self.face_tets, self.tet_faces,
+            self.face_centres / s, self.centres / s)
+        inner = edge >= 0
+        return DualFaces(
+            vertices=vertices,
+            area=np.concatenate([self.dual_area, boundary_area * s**2]),
+            normal=normal,
+            centroid=centroid * s,
+            transmissibility=np.where(inner, self.transmissibility[np.maximum(edge, 0)], 0.0),
+            edge=edge,
+            face=face,
+        )
 
     @property
     def boundary_faces(self) -> np.ndarray:
@@ -196,7 +319,7 @@ def dual_geometry(V, T=None, *, weights=None, threads=None) -> DualGeometry:
     t, corner = first // 4, first % 4
     heights, areas = heights.reshape(-1), areas.reshape(-1)
     dual_length = heights[first] + np.where(second >= 0, heights[np.maximum(second, 0)], 0.0)
-    return DualGeometry(
+    g = DualGeometry(
         edges=edges,
         edge_length=edge_length,
         dual_area=transmissibility * edge_length,
@@ -214,25 +337,8 @@ def dual_geometry(V, T=None, *, weights=None, threads=None) -> DualGeometry:
         face_centres=points[t, 1 + corner],
         dual_length=dual_length,
     )
-
-
-def _parity(p: np.ndarray) -> np.ndarray:
-    """+1 / -1: the sign of each row of ``p`` (k, 4) as a permutation of its values."""
-    inversions = sum((p[:, i] > p[:, j]).astype(np.int64) for i in range(4) for j in range(i + 1, 4))
-    return 1 - 2 * (inversions % 2)
-
-
-def _outward(T: np.ndarray, orientation: np.ndarray) -> np.ndarray:
-    """(m, 4) int64: +1 where the face opposite corner ``l`` of tet ``t``, oriented by its
-    sorted vertices ``(a, b, c)``, has its normal ``(x_b - x_a) x (x_c - x_a)`` pointing out
-    of the tet, -1 where inward (``orientation``: the tets' signs, none 0). The face and
-    the opposite corner ``o`` are the tet as ``(a, b, c, o)``, whose orientation is the
-    tet's times the parity of that reordering; the normal points to ``o`` when it is +1."""
-    m = len(T)
-    local = np.broadcast_to(_FACES, (m, 4, 3))
-    order = np.take_along_axis(local, np.argsort(T[:, _FACES], axis=2), axis=2)
-    corners = np.concatenate([order, np.broadcast_to(np.arange(4)[None, :, None], (m, 4, 1))], axis=2)
-    return -orientation.astype(np.int64)[:, None] * _parity(corners.reshape(-1, 4)).reshape(m, 4)
+    object.__setattr__(g, "_mesh", (V.copy(), T.copy(), None if w is None else w.copy()))
+    return g
 
 
 class _Faces:

@@ -74,6 +74,8 @@ def check_laplacian(args) -> None:
 
 
 def run(args) -> int:
+    """Everything is computed before the first file is written: a command that fails
+    leaves no file behind, and one that wrote its files succeeded."""
     import scipy.sparse as sp
 
     from .. import assembly, diagnostics
@@ -81,6 +83,7 @@ def run(args) -> int:
     V, T, _ = _mesh.load(args.mesh)
     L, M = assembly.operators(V, T, laplacian=kind(args.laplacian), mass=args.mass,
                               degenerate=args.degenerate)
+    bad = int((M.diagonal()[diagnostics.referenced_vertices(V, T)] <= 0).sum())
     l_file, m_file = output_names(args.output, args.mesh)
     _paths.make_folder(l_file)
     sp.save_npz(l_file, L)
@@ -88,9 +91,9 @@ def run(args) -> int:
     print(f"L ({args.laplacian}, {L.shape[0]} x {L.shape[1]}, {L.nnz} entries) -> "
           f"{_paths.shown(l_file)}")
     print(f"M ({args.mass}) -> {_paths.shown(m_file)}")
-    bad = int((M.diagonal()[diagnostics.referenced_vertices(V, T)] <= 0).sum())
     if bad:
         print(f"tetlap: warning: M ({args.mass}) has {bad} non-positive diagonal entries at "
-              "vertices of the mesh (dual cells of a non-Delaunay mesh); --mass mixed gives "
-              "positive dual masses", file=sys.stderr)
+              "vertices of the mesh (circumcentres outside their elements: a mesh that is not "
+              "Delaunay, or obtuse elements at its boundary); --mass mixed gives positive dual "
+              "masses", file=sys.stderr)
     return 0
