@@ -181,8 +181,17 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
 
     Notes
     -----
-    Linear precision (Eq. 26) is ``max_i |(L V)_i|`` over interior vertices relative to
-    ``max|L| * diameter``; it applies to meshes in R^3 (an immersed mesh is curved).
+    Linear precision (Eq. 26) is ``max_i |(L (V - c))_i|`` over interior vertices relative
+    to ``max|L| * diameter``, with ``c`` the centre and ``diameter`` the diagonal of the
+    bounding box of the vertices in tets; it applies to meshes in R^3 (an immersed mesh is
+    curved). Measured in that frame, the number does not depend on where the mesh lies
+    (a mesh offset by ``1e12`` gets the numbers of the mesh translated back): in the frame
+    of the origin it would add ``c`` times each row's sum, whose rounding is the row-sum
+    check's business (``|row sum| <= 1e-10 max|L|``, which adds at most half the tolerance
+    here, since ``|x_i - c| <= diameter / 2``), and a perfect operator 1e6 away from the
+    origin would fail. One tolerance (``TOL``, relative to ``max|L|`` times a length of
+    the mesh) thus serves both checks, at every offset and scale. ``kind="cell"`` measures
+    the cell centres in the same frame.
 
     ``L`` counts as negative semidefinite when ``-L + 1e-9 diag(|L_ii|)`` is positive
     semidefinite (``NSD_RTOL``): the tolerance of each vertex is relative to its own row
