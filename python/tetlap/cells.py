@@ -15,9 +15,9 @@ import dataclasses
 import numpy as np
 import scipy.sparse as sp
 
-from . import _arrays, _core, analysis
+from . import _arrays, _core, analysis, diagnostics
 from ._docs import shared_docs
-from .dual import OUTSIDE_TOL, DualGeometry, _outward, dual_geometry
+from .dual import OUTSIDE_TOL, DualGeometry, dual_geometry
 from .errors import DegenerateElementError
 
 __all__ = ["cell_laplacian", "CellReport", "ZERO_TOL"]
@@ -201,11 +201,7 @@ def _report(L, V: np.ndarray, T: np.ndarray, M, *, weights, negative_tol: float,
         residual = float(np.abs(L @ g.centres)[off].max()) / (scale * diameter)
     if not finite:
         notes.append("L has NaN or Inf entries: only finiteness and locality are decided")
-    # folded: the face's two tets see it with one orientation (the same sign in d2)
-    outward = _outward(T, g.orientation)
-    faces = np.flatnonzero(interior)[:, None]
-    sign = lambda k: outward[k, (g.tet_faces[k] == faces).argmax(axis=1)]
-    folded = int((sign(s) == sign(t)).sum())
+    folded = int(diagnostics.folded_faces(V, T).sum())   # the two tets on one side
     if folded:
         notes.append(f"{folded} interior faces are folded (their two tets on one side: the "
                      "mesh overlaps itself): linear precision fails at their cells")
