@@ -440,6 +440,30 @@ def test_plot_names_files_and_titles_after_the_mesh(tmp_path, monkeypatch):
     assert "% of the weights negative" in titles[1]
 
 
+def test_the_plot_titles_count_what_the_table_counts(tmp_path, monkeypatch):
+    """Issue 37.27: the titles of ``--plot`` counted masses <= 0 over every vertex (3 where
+    the table said 0: the vertices in no tet) and weights < 0 without the table's
+    tolerance (48 rounding zeros of the dual of a Kuhn grid). Both now come from the
+    table's own rules (analysis.lumped_masses, analysis.negative_weights)."""
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    V, T = tetlap.meshes.cube(3)                       # Kuhn: dual weights of -2e-17
+    V = np.vstack([V, [[5.0, 5.0, 5.0], [6.0, 5.0, 5.0], [5.0, 6.0, 5.0]]])  # in no tet
+    titles = []
+    monkeypatch.setattr(Figure, "savefig", lambda fig, path, **kwargs: titles.extend(
+        ax.get_title() for ax in fig.axes))
+    info.plot(V, T, tmp_path, name="kuhn")
+    r = info.report(V, T, nsd=False, regular=False, progress=False)
+    used = len(V) - 3
+    for kind, mass in PAIRS.items():
+        share = 100 * r[kind]["n_negative"] / r[kind]["n_edges"]
+        assert f"{kind} Laplacian: {share:.2f}% of the weights negative" in titles
+        assert (f"{mass} mass: {r[kind]['mass_nonpositive']} of {used} vertices with "
+                "mass <= 0") in titles
+    assert r["dual"]["n_negative"] == 0 and r["primal"]["mass_nonpositive"] == 0
+
+
 def test_the_linear_bin_around_zero_is_labelled(tmp_path, monkeypatch):
     """Issue 30: the symlog histograms drew [-threshold, threshold] as one unlabelled
     block; 0 and the threshold are ticks now, on every weight and mass axis."""

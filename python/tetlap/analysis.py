@@ -25,7 +25,7 @@ from . import _arrays, _core, _options, _sparse, assembly, diagnostics
 from ._interrupt import interruptible
 from .errors import OptionError, ShapeError
 
-__all__ = ["check", "Report", "negative_weights", "NEGATIVE_TOL", "TOL", "NSD_RTOL", "DENSE_NSD_MAX", "SPARSE_NSD_MAX"]
+__all__ = ["check", "Report", "negative_weights", "lumped_masses", "NEGATIVE_TOL", "TOL", "NSD_RTOL", "DENSE_NSD_MAX", "SPARSE_NSD_MAX"]
 
 #: A weight counts as negative when ``w < -NEGATIVE_TOL * max|w|``: weights that are zero
 #: up to rounding (right dihedral angles of a Kuhn grid) do not count.
@@ -256,6 +256,15 @@ def negative_weights(L, V, T, on_boundary=None) -> tuple[int, int]:
     return int(c["n_negative"]), int(c["n_negative_inner"])
 
 
+def lumped_masses(M, T, n: int) -> np.ndarray:
+    """The lumped masses (row sums of ``M``, (n, n)) of the vertices in tets ``T``, in
+    vertex order: the masses :func:`check` reports (``mass_min``, ``mass_nonpositive``)
+    and ``tetlap info --plot`` draws and counts. A vertex in no tet has no mass to check
+    (its 0 is no fault of the mass)."""
+    M = _arrays.matrix(M, n, "M")
+    return np.asarray(M.sum(axis=1)).ravel()[diagnostics.referenced_vertices(T, n)]
+
+
 def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=None,
            assembled=False, weights=None) -> Report:
     """:func:`check` on validated ``V`` (float64) and ``T`` (int64), reusing what the
@@ -313,9 +322,8 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
         notes=notes,
     )
     if M is not None:
-        M = _arrays.matrix(M, n, "M")
-        lumped = np.asarray(M.sum(axis=1)).ravel()[diagnostics.referenced_vertices(T, n)]
-        report.mass_min = float(lumped.min())          # over the vertices in tets
+        lumped = lumped_masses(M, T, n)
+        report.mass_min = float(lumped.min())
         report.mass_nonpositive = int((lumped <= 0).sum())
         report.mass_total = float(M.sum())
         report.mesh_volume = (float(np.abs(diagnostics.signed_volumes(V, T)).sum())
