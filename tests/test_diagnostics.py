@@ -338,6 +338,11 @@ def test_folds_are_decided_by_the_geometry_not_the_vertex_order():
     spoiled = np.flatnonzero(d.folded_vertices(V, T) & d.interior_vertices(V, T))
     for kind in ("primal", "dual"):
         assert interior_vertices_without_linear_precision(V, T, kind).tolist() == spoiled.tolist()
+        # check's failed linear precision names the folds
+        r = tetlap.check(tetlap.laplacian(V, T, kind), V, T, nsd=False)
+        assert r.linear_precision_ok is False
+        (note,) = [n for n in r.notes if "folds over itself" in n]
+        assert ", ".join(map(str, np.flatnonzero(tets))) in note
     # a mesh of mixed vertex order, unfolded: nothing
     V, T = tetlap.meshes.cube(3, jitter=0.2, seed=2)
     T = T.copy()

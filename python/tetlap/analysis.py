@@ -256,6 +256,21 @@ def negative_weights(L, V, T, on_boundary=None) -> tuple[int, int]:
     return int(c["n_negative"]), int(c["n_negative_inner"])
 
 
+def _fold_note(V, T) -> list[str]:
+    """The note of a failed linear precision on a folded mesh: its folded tets and the
+    vertices they spoil (:mod:`tetlap.diagnostics`), which no operator is linearly precise
+    at; none if the mesh has no fold."""
+    vertices = np.flatnonzero(diagnostics.folded_vertices(V, T))
+    if not len(vertices):
+        return []
+    tets = np.flatnonzero(diagnostics.folded_tets(V, T))
+    listed = lambda x: ", ".join(map(str, x[:diagnostics.LISTED])) + (
+        ", ..." if len(x) > diagnostics.LISTED else "")
+    return [f"linear precision: the mesh folds over itself ({len(tets)} tets overlap a "
+            f"neighbour: {listed(tets)}); no Laplacian is linearly precise at the "
+            f"{len(vertices)} vertices of the folded faces: {listed(vertices)}"]
+
+
 def lumped_masses(M, T, n: int) -> np.ndarray:
     """The lumped masses (row sums of ``M``, (n, n)) of the vertices in tets ``T``, in
     vertex order: the masses :func:`check` reports (``mass_min``, ``mass_nonpositive``)
@@ -284,6 +299,8 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
         notes.append("linear precision: not applicable to an immersed (d > 3) mesh")
     elif lp is None:
         notes.append("linear precision: the mesh has no interior vertices")
+    elif not lp < TOL:
+        notes += _fold_note(V, T)
 
     finite = c["finite"]
     if not finite:
