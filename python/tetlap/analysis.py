@@ -238,7 +238,9 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
 
         return cells._report(L, V, T, M, weights=weights, negative_tol=negative_tol, nsd=nsd)
     if weights is not None:
-        raise OptionError('weights= applies to kind="cell" only')
+        raise OptionError('weights= applies to kind="cell" only: the vertex weights of the '
+                          "dual whose power centres L's cells were built with; the other "
+                          "kinds read L as given")
     return _check(L, V, T, M, kind=kind, negative_tol=negative_tol, nsd=nsd)
 
 
