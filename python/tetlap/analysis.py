@@ -147,7 +147,11 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     Parameters
     ----------
     L : (n, n) SciPy sparse array or matrix (any format)
-        In the paper's sign convention (``L[i, i] = -sum_j L[i, j]``). Not modified.
+        In the paper's sign convention (``L[i, i] = -sum_j L[i, j]``, negative where the
+        weights sum to more than zero). A matrix in the stiffness sign (``K = -L``, as
+        LaPy and scikit-fem hold it: no negative diagonal entry and a positive one) is
+        refused with :class:`tetlap.OptionError` (pass ``-K``): every sign-dependent row
+        would answer for the negated operator. Not modified.
     V : (n, d) array-like of real numbers
         Vertex positions.
     T : (m, 4) array-like of integers, optional
@@ -250,8 +254,10 @@ def negative_weights(L, V, T, on_boundary=None) -> tuple[int, int]:
     :func:`check` (``w < -NEGATIVE_TOL * max|w|``, counted by the core in one pass).
 
     ``V``, ``T`` validated (float64 points, int64 tets); ``on_boundary`` the (n,) boundary
-    vertex mask when the caller has it.
+    vertex mask when the caller has it. ``L`` in the stiffness sign (``-L``) is refused, as
+    by :func:`check`.
     """
+    L = _arrays.laplacian(L, V.shape[0])
     if on_boundary is None:
         on_boundary = diagnostics.boundary_vertices(T, V.shape[0])
     c = _core.check_operator(V, T, _sparse.arrays(L), on_boundary, NEGATIVE_TOL)
@@ -290,7 +296,9 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
     weights=weights)`` itself (``weights``: the vertex weights of a weighted dual, for its
     element certificate)."""
     n = V.shape[0]
-    L = _arrays.matrix(L, n, finite=False)  # a NaN or Inf is reported, not refused
+    # a NaN or Inf is reported, not refused; the stiffness sign (-L) is refused: its every
+    # sign-dependent row would answer for the negated operator
+    L = _arrays.laplacian(L, n, finite=False)
     if boundary is None:
         boundary = diagnostics.boundary_vertices(T, n)
     c = _core.check_operator(V, T, _sparse.arrays(L), boundary, float(negative_tol))
@@ -436,17 +444,19 @@ def _nsd_of(S: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights)
     if answer is not None:
         return answer
     verdict, name, details = _core.negative_semidefinite(n, _sparse.arrays(S), tol)
+    # the rows of L: the mesh's vertices, or the cells of a cell-centred operator
+    one, many = ("cell", "cells") if kind == "cell" else ("vertex", "vertices")
     if name == "local certificate":
         return verdict, None, (f"local certificate: {details['groups']} neighbourhoods of <= "
-                               f"{details['largest']} vertices cover every negative weight")
+                               f"{details['largest']} {many} cover every negative weight")
     if name == "indefinite":
         return False, details["rayleigh"], (
-            f"witness: a vector on {details['support']} vertices around vertex "
+            f"witness: a vector on {details['support']} {many} around {one} "
             f"{details['vertex']} with Rayleigh quotient {details['rayleigh']:.3e}")
     if name != "undetermined":
         return verdict, None, name
     reason = (f"{details['uncovered']} negative weights not covered by neighbourhoods of "
-              f"<= {_core.MAX_GROUP} vertices")
+              f"<= {_core.MAX_GROUP} {many}")
     live, zero_diagonal = _live_rows(S, diagonal)
     if zero_diagonal is not None:
         return False, None, (f"row {zero_diagonal} of L has entries but a zero diagonal "
@@ -457,8 +467,10 @@ def _nsd_of(S: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights)
             return negatives == 0, None, (f"inertia of a sparse LDL^T of -L + {NSD_RTOL:.0e} "
                                           f"diag(|L_ii|): {negatives} negative pivots ({reason})")
         reason += "; the LDL^T pivoted off the diagonal"
-    # a vertex in no tet whose row is empty takes no part (its eigenvalue 0 is no answer)
-    part = diagnostics.referenced_vertices(T, n) | (np.asarray(abs(S).sum(axis=1)).ravel() > 0)
+    # a vertex in no tet whose row is empty takes no part (its eigenvalue 0 is no answer);
+    # every cell of a cell operator does
+    mesh = np.ones(n, dtype=bool) if kind == "cell" else diagnostics.referenced_vertices(T, n)
+    part = mesh | (np.asarray(abs(S).sum(axis=1)).ravel() > 0)
     if part.sum() <= DENSE_NSD_MAX:
         verdict, lam = (_dense(S, diagonal) if part.all()
                         else _dense(S[part][:, part], diagonal[part]))

@@ -161,7 +161,7 @@ def _report(L, V: np.ndarray, T: np.ndarray, M, *, weights, negative_tol: float,
     """``check(L, V, T, M, kind="cell", weights=weights)`` on validated ``V`` (float64) and
     ``T`` (int64)."""
     m = T.shape[0]
-    L = _arrays.matrix(L, m, finite=False)
+    L = _arrays.laplacian(L, m, finite=False)           # the stiffness sign refused
     # the geometry in a frame centred on the box of the vertices in tets (an unused vertex
     # changes no answer), as the vertex check measures: the centres of a mesh far from
     # the origin are then as accurate as near it (their rounding is relative to the
