@@ -349,6 +349,7 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
         notes=notes,
     )
     if M is not None:
+        M = _arrays.matrix(M, n, "M")
         lumped = lumped_masses(M, T, n)
         report.mass_min = float(lumped.min())
         report.mass_nonpositive = int((lumped <= 0).sum())
