@@ -266,8 +266,8 @@ def negative_weights(L, V, T, on_boundary=None) -> tuple[int, int]:
 
 def _fold_note(V, T) -> list[str]:
     """The note of a failed linear precision on a folded mesh: its folded tets and the
-    vertices they spoil (:mod:`tetlap.diagnostics`), which no operator is linearly precise
-    at; none if the mesh has no fold."""
+    vertices they spoil (:mod:`tetlap.diagnostics`), where every operator loses linear
+    precision; none if the mesh has no fold."""
     vertices = np.flatnonzero(diagnostics.folded_vertices(V, T))
     if not len(vertices):
         return []
@@ -275,7 +275,7 @@ def _fold_note(V, T) -> list[str]:
     listed = lambda x: ", ".join(map(str, x[:diagnostics.LISTED])) + (
         ", ..." if len(x) > diagnostics.LISTED else "")
     return [f"linear precision: the mesh folds over itself ({len(tets)} tets overlap a "
-            f"neighbour: {listed(tets)}); no Laplacian is linearly precise at the "
+            f"neighbour: {listed(tets)}); every Laplacian loses linear precision at the "
             f"{len(vertices)} vertices of the folded faces: {listed(vertices)}"]
 
 

@@ -319,7 +319,7 @@ def folded_faces(V, T=None) -> np.ndarray:
     same side of it, so they overlap and the mesh folds over itself there. Decided from
     exact orientation signs, and by the geometry only: a tet whose vertex order alone is
     reversed (a negative signed volume) folds nothing, a tet inverted against its
-    neighbours folds every face it shares with them. No Laplacian is linearly precise at
+    neighbours folds every face it shares with them. Every Laplacian loses linear precision at
     the vertices of a folded face (:func:`folded_vertices`). False for a flat tet and for
     an immersed mesh (d > 3, no sides).
 
@@ -408,8 +408,10 @@ def folded_tets(V, T=None) -> np.ndarray:
 def folded_vertices(V, T=None) -> np.ndarray:
     """Boolean (n,): the vertices of folded faces (:func:`folded_faces`), where the mesh
     folds over itself. At such a vertex the tets around it do not tile a neighbourhood,
-    so neither Laplacian is linearly precise there (``tetlap.check`` fails at the
-    interior ones), whatever the tets' vertex order.
+    so neither Laplacian is linearly precise there, whatever the tets' vertex order:
+    ``L x`` misses by about the folded tets' share of the vertex's row (``tetlap.check``
+    fails at the interior ones, unless the folded tets are so small that this stays
+    within its tolerance).
 
     >>> import numpy as np, tetlap
     >>> V, T = tetlap.meshes.cube(2)

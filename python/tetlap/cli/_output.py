@@ -153,9 +153,9 @@ def _folded_line(m: dict) -> str:
     """The folded tets of ``tetlap info`` and the vertices they spoil."""
     return (f"folded: {m['n_folded_tets']} tets overlap a neighbour (both on one side of "
             f"their shared face; a reversed vertex order alone is no fold): "
-            f"{_listed(m['folded_tets'], m['n_folded_tets'])}; no Laplacian is linearly "
-            f"precise at the {m['n_folded_vertices']} vertices of the "
-            f"{m['n_folded_faces']} folded faces: "
+            f"{_listed(m['folded_tets'], m['n_folded_tets'])}; every Laplacian loses linear "
+            f"precision, by the folded tets' share, at the {m['n_folded_vertices']} "
+            f"vertices of the {m['n_folded_faces']} folded faces: "
             f"{_listed(m['folded_vertices'], m['n_folded_vertices'])}")
 
 
