@@ -542,7 +542,7 @@ def test_a_witness_rayleigh_quotient_is_labelled_an_upper_bound():
     with pytest.deprecated_call(match="upper bound"):
         assert r.nsd_min_eigenvalue == bound
     report = tetlap.info.report(V, T, regular=False)
-    assert report["schema_version"] == tetlap.info.SCHEMA_VERSION == 3
+    assert report["schema_version"] == tetlap.info.SCHEMA_VERSION >= 3
     assert report["dual"]["nsd_min_eigenvalue_upper_bound"] == bound
 
 
@@ -573,3 +573,76 @@ def test_nsd_is_a_flag(bad):
     with pytest.raises(tetlap.OptionError, match="nsd must be True or False"):
         tetlap.check(L, V, T, nsd=bad)
     assert tetlap.check(L, V, T, nsd=np.bool_(False)).nsd is None
+
+
+# ---- linear precision does not depend on where the mesh lies ---------------------------
+
+
+def _broken(L, i):
+    """``L`` with one interior edge weight at vertex (or cell) ``i`` raised by a tenth of
+    the largest entry, its diagonal entries lowered to match: still symmetric with zero
+    row sums, but no longer linearly precise."""
+    L = sp.lil_array(L)
+    j = next(int(c) for c in L.rows[i] if c != i)
+    delta = 0.1 * abs(L).max()
+    L[i, j] += delta
+    L[j, i] += delta
+    L[i, i] -= delta
+    L[j, j] -= delta
+    return sp.csr_array(L)
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e3, 1e6, 1e9, 1e12])
+def test_linear_precision_does_not_depend_on_where_the_mesh_lies(offset):
+    """Issue 37.6: check said NO for a mesh offset by 1e6 (5e6 for kind="cell") although
+    the operator is bitwise that of the mesh translated back, where it said yes: the
+    residual was measured in the frame of the origin, where each row's rounding (its sum,
+    about 1e-16 of its entries) is multiplied by the offset. It is measured in a frame
+    centred on the mesh; a broken operator still says NO at every offset."""
+    V, T = tetlap.meshes.ball(300, seed=2)
+    far = V + offset
+    back = far - offset                                   # exact: the mesh translated back
+    inner = int(np.flatnonzero(tetlap.diagnostics.interior_vertices(V, T))[0])
+    for kind in ("primal", "dual", 0.5):
+        L = tetlap.laplacian(far, T, kind)
+        assert (L != tetlap.laplacian(back, T, kind)).nnz == 0
+        r = tetlap.check(L, far, T, kind=kind, nsd=False)
+        assert r.linear_precision_ok is True, (kind, r.linear_precision_residual)
+        assert r.linear_precision_residual < 1e-13
+        bad = tetlap.check(_broken(L, inner), far, T, nsd=False)
+        assert (bad.linear_precision_ok, bad.symmetric, bad.row_sums_ok) == (False, True, True)
+        assert bad.linear_precision_residual > 1e-3
+    Lc = tetlap.cell_laplacian(far, T)
+    r = tetlap.check(Lc, far, T, kind="cell", nsd=False)
+    assert r.linear_precision_ok is True and r.linear_precision_residual < 1e-13
+    g = tetlap.dual_geometry(V, T)
+    cell = int(np.setdiff1d(np.arange(len(T)), g.face_tets[g.boundary_faces, 0])[0])
+    bad = tetlap.check(_broken(Lc, cell), far, T, kind="cell", nsd=False)
+    assert (bad.linear_precision_ok, bad.row_sums_ok) == (False, True)
+    # tetlap info reports the same
+    result = tetlap.info.report(far, T, nsd=False, regular=False, progress=False)
+    assert result["primal"]["linear_precision_ok"] and result["dual"]["linear_precision_ok"]
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e3, 1e6, 1e9, 1e12])
+def test_the_cores_linear_precision_of_planar_triangles_is_centred_too(offset):
+    """The core's check is one code for tets and triangles: planar triangles (as wide as
+    their ambient space) get the same centred residual; triangles in R^3 (a surface,
+    curved in general) none."""
+    rng = np.random.default_rng(0)
+    k = 6
+    x, y = np.meshgrid(np.arange(k + 1.0), np.arange(k + 1.0), indexing="ij")
+    P = np.column_stack([x.ravel(), y.ravel()]) / k
+    inside = ((P > 0) & (P < 1)).all(axis=1)
+    P[inside] += rng.uniform(-0.2, 0.2, (inside.sum(), 2)) / k
+    idx = np.arange((k + 1) ** 2).reshape(k + 1, k + 1)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel()
+    F = np.concatenate([np.column_stack([a, b, d]), np.column_stack([a, d, c])])
+    P = P + offset
+    L = tetlap.laplacian(P, F)
+    c = _core.check_operator(P, F, tetlap._sparse.arrays(L), ~inside, 1e-12)
+    assert c["linear_precision"] < 1e-13, c["linear_precision"]
+    lifted = np.column_stack([P, np.zeros(len(P))])
+    c = _core.check_operator(lifted, F, tetlap._sparse.arrays(tetlap.laplacian(lifted, F)),
+                             ~inside, 1e-12)
+    assert c["linear_precision"] is None

@@ -337,11 +337,13 @@ def test_weights_are_validated(ball):
         tetlap.laplacian(V, T, "dual", boundary="voronoi")
 
 
-def test_primal_ignores_weights_and_boundary(ball):
+def test_primal_ignores_the_boundary_treatment_and_refuses_weights(ball):
     V, T = ball
     P = tetlap.laplacian(V, T, "primal")
-    Q = tetlap.laplacian(V, T, "primal", weights=np.ones(len(V)), boundary="barycentric")
+    Q = tetlap.laplacian(V, T, "primal", boundary="barycentric")
     assert (P != Q).nnz == 0
+    with pytest.raises(tetlap.OptionError, match="belong to the dual"):   # issue 37: ignored
+        tetlap.laplacian(V, T, "primal", weights=np.ones(len(V)))
 
 
 def boundary_tet_mask(T):
@@ -389,3 +391,57 @@ def test_mesh_with_weights_and_boundary_matches_one_shot(ball, rng):
     mesh.update(V2)
     assert (mesh.laplacian("dual") != tetlap.laplacian(V2, T, "dual", **kw)).nnz == 0
     assert (mesh.mass("circumcentric") != tetlap.mass(V2, T, "circumcentric", **kw)).nnz == 0
+
+
+# ---- weights= where nothing uses them --------------------------------------------------
+
+
+def test_weights_are_refused_wherever_nothing_uses_them(ball):
+    """Issue 37.10: ``weights=`` with the primal was ignored silently (and with the
+    barycentric, mixed and FEM masses, which do not depend on them either). Every function
+    that takes ``weights=`` refuses them, naming the keyword and that they belong to the
+    dual, where the result would not depend on them; where a part uses them, they are
+    used (and change the result)."""
+    V, T = ball
+    w = np.random.default_rng(0).uniform(0, 1e-2, len(V))
+    f = V[:, 0] ** 2
+    edges = tetlap.diagnostics.mesh_edges(V, T)
+    refused = {
+        "laplacian primal": lambda **k: tetlap.laplacian(V, T, "primal", **k),
+        "laplacian default": lambda **k: tetlap.laplacian(V, T, **k),
+        "laplacian t = 0": lambda **k: tetlap.laplacian(V, T, 0.0, **k),
+        "mass barycentric": lambda **k: tetlap.mass(V, T, "barycentric", **k),
+        "mass mixed": lambda **k: tetlap.mass(V, T, "mixed", **k),
+        "mass fem": lambda **k: tetlap.mass(V, T, "fem", **k),
+        "operators": lambda **k: tetlap.operators(V, T, "primal", "mixed", **k),
+        "triplets": lambda **k: tetlap.triplets(V, T, "primal", **k),
+        "edge_weights": lambda **k: tetlap.edge_weights(V, T, "primal", **k),
+        "element_contributions": lambda **k: tetlap.element_contributions(V, T, **k),
+        "tet_contributions": lambda **k: tetlap.tet_contributions(V, T, **k),
+        "Mesh.laplacian": lambda **k: tetlap.Mesh(V, T, **k).laplacian(),
+        "Mesh.mass": lambda **k: tetlap.Mesh(V, T, **k).mass("barycentric"),
+        "Mesh.operators": lambda **k: tetlap.Mesh(V, T, **k).operators("primal", "fem"),
+        "vjp": lambda **k: tetlap.vjp(V, T, "primal", dL=(edges, np.ones(len(edges))), **k),
+        "dirichlet_energy": lambda **k: tetlap.dirichlet_energy(V, T, f, "primal", **k),
+        "mass_energy": lambda **k: tetlap.mass_energy(V, T, f, "barycentric", **k),
+        "HeatDistance": lambda **k: tetlap.HeatDistance(V, T, **k),
+        "harmonic": lambda **k: tetlap.harmonic(V, T, [0], [1.0], laplacian="primal", **k),
+        "check": lambda **k: tetlap.check(tetlap.laplacian(V, T), V, T, nsd=False, **k),
+    }
+    for name, call in refused.items():
+        call()                                                   # fine without weights
+        with pytest.raises(tetlap.OptionError, match="weights") as e:
+            call(weights=w)
+        assert "dual" in str(e.value), name
+    used = {
+        "laplacian dual": lambda **k: tetlap.laplacian(V, T, "dual", **k),
+        "laplacian t = 0.5": lambda **k: tetlap.laplacian(V, T, 0.5, **k),
+        "mass circumcentric": lambda **k: tetlap.mass(V, T, "circumcentric", **k),
+        "operators, the mass weighted": lambda **k: tetlap.operators(V, T, "primal",
+                                                                     "circumcentric", **k)[1],
+        "Mesh.laplacian dual": lambda **k: tetlap.Mesh(V, T, **k).laplacian("dual"),
+        "dirichlet_energy dual": lambda **k: tetlap.dirichlet_energy(V, T, f, "dual", **k)[0],
+    }
+    for name, call in used.items():
+        a, b = call(), call(weights=w)
+        assert (abs(a - b).max() if hasattr(a, "nnz") else abs(a - b)) > 0, name

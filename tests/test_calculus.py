@@ -183,9 +183,60 @@ def test_huge_and_tiny_coordinates_scale_the_gradients():
     for s in (2.0 ** 300, 2.0 ** -300):
         Gs = tetlap.gradient(V * s, T)
         assert abs(Gs * s - G).max() <= 1e-12 * abs(G).max()
-    # volumes beyond float64 (2^1500) are refused like the operators' masses
+    # volumes beyond float64 (2^1500) are refused like the operators' masses, where they
+    # are returned; the gradient needs none (issue 37: it refused them too)
     with pytest.raises(tetlap.DegenerateElementError, match="float64 range"):
-        tetlap.gradient(V * 2.0 ** 500, T)
+        tetlap.calculus.element_gradients(V * 2.0 ** 500, T)
+    assert abs(tetlap.gradient(V * 2.0 ** 500, T) * 2.0 ** 500 - G).max() <= 1e-12 * abs(G).max()
+
+
+def triangles():
+    """A jittered triangulated square in the plane."""
+    rng = np.random.default_rng(1)
+    x, y = np.meshgrid(np.linspace(0, 1, 5), np.linspace(0, 1, 5), indexing="ij")
+    V = np.column_stack([x.ravel(), y.ravel()])
+    inside = ((V > 0) & (V < 1)).all(axis=1)
+    V[inside] += rng.uniform(-0.05, 0.05, (inside.sum(), 2))
+    i = np.arange(25).reshape(5, 5)
+    a, b, c, d = i[:-1, :-1].ravel(), i[1:, :-1].ravel(), i[:-1, 1:].ravel(), i[1:, 1:].ravel()
+    return V, np.concatenate([np.column_stack([a, b, d]), np.column_stack([a, d, c])])
+
+
+@pytest.mark.parametrize("exponent", [-150, -130, -110, -100, -60, 60, 100, 110, 130, 150])
+def test_gradient_and_divergence_at_any_scale_are_the_scaled_unit_ones(exponent):
+    """Issue 37.22: at 1e-110 a well-shaped mesh's gradient said "degenerate (zero volume)"
+    (its volumes underflow), at 1e105 "beyond the float64 range" (they overflow), and at
+    1e-105 the divergence came out 1e-7 off (subnormal volumes). The operators' rule: the
+    mesh is computed scaled by a power of two (exact) and scaled back, and only a value
+    that itself leaves the float64 range is refused. G scales as 1/length, D as length^2
+    (tets) or length (triangles)."""
+    s = 10.0 ** exponent
+    for V, T in (tetlap.meshes.cube(2, jitter=0.2), triangles()):
+        p = T.shape[1] - 2                                  # D scales as length^p
+        G, D = tetlap.gradient(V, T), tetlap.divergence(V, T)
+        Gs, Ds = tetlap.gradient(V * s, T), tetlap.divergence(V * s, T)
+        assert abs(Gs * s - G).max() <= 1e-13 * abs(G).max()
+        assert abs(Ds / s**p - D).max() <= 1e-13 * abs(D).max()
+        assert (Gs.indices == G.indices).all() and (Ds.indices == D.indices).all()
+    # what cannot be represented is refused, naming the range, never "degenerate"
+    V, T = tetlap.meshes.cube(2, jitter=0.2)
+    if abs(exponent) > 100:                                 # volumes of 1e-330 / 1e330
+        with pytest.raises(tetlap.DegenerateElementError, match="float64 range"):
+            tetlap.calculus.element_gradients(V * s, T)
+        g, vol = tetlap.calculus.element_gradients(V * s, T, degenerate="skip")
+        assert not vol.any() and not g.any()
+    else:
+        g, vol = tetlap.calculus.element_gradients(V * s, T)
+        g0, vol0 = tetlap.calculus.element_gradients(V, T)
+        assert np.allclose(g * s, g0, rtol=1e-13) and np.allclose(vol / s**3, vol0, rtol=1e-13)
+
+
+def test_a_divergence_beyond_the_float_range_is_refused_not_rounded_away():
+    V, T = tetlap.meshes.cube(2, jitter=0.2)
+    with pytest.raises(tetlap.DegenerateElementError, match="float64 range"):
+        tetlap.divergence(V * 1e-160, T)                     # entries of 1e-320
+    D = tetlap.divergence(V * 1e-160, T, degenerate="skip")
+    assert D.shape == tetlap.divergence(V, T).shape and not D.data.any()
 
 
 def test_bitwise_identical_for_any_thread_count():

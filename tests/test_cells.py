@@ -200,3 +200,44 @@ def test_check_counts_folded_faces():
     r = tetlap.check(tetlap.cell_laplacian(*tetlap.meshes.ball(200, seed=1)),
                      *tetlap.meshes.ball(200, seed=1), kind="cell")
     assert r.n_folded_faces == 0 and not any("folded" in note for note in r.notes)
+
+
+def test_the_cell_checks_semidefiniteness_speaks_of_cells(monkeypatch):
+    """Issue 37.22: the cell check's witness spoke of "a vector on N vertices around
+    vertex K" where its rows are cells; every route's reason names cells. The last
+    routes, forced, run on a mesh with more vertices than cells (the vertex mask of the
+    dense route was built over the cells' indices)."""
+    V, T = tetlap.meshes.weighted_ball(300, 0.5, seed=3)
+    r = tetlap.check(tetlap.cell_laplacian(V, T), V, T, kind="cell")
+    assert r.nsd is False and r.nsd_method.startswith("witness: a vector on ")
+    assert " cells around cell " in r.nsd_method and "vert" not in r.nsd_method
+    V, T = tetlap.meshes.ball(60, seed=1)
+    V = np.vstack([V, np.random.default_rng(0).uniform(5, 6, (len(T), 3))])  # n > m
+    Lc = tetlap.cell_laplacian(V, T)
+    monkeypatch.setattr(tetlap.analysis._core, "negative_semidefinite",
+                        lambda n, S, tol: (None, "undetermined", {"uncovered": 2}))
+    monkeypatch.setattr(tetlap.analysis, "_ldl_inertia", lambda A, shift: None)
+    r = tetlap.check(Lc, V, T, kind="cell")
+    assert r.nsd is True and r.nsd_method.startswith("dense eigenvalues")
+    assert "<= 600 cells" in r.nsd_method and "vert" not in r.nsd_method
+
+
+def test_check_refuses_the_stiffness_sign():
+    """Issue 37.22: check(-L) (LaPy's and scikit-fem's stiffness sign) reported an
+    indefinite operator with 69% negative weights: every sign-dependent row answered for
+    the negated Laplacian. It is refused, naming the convention, for every kind."""
+    V, T = tetlap.meshes.cube(3, jitter=0.2)
+    for kind in ("primal", "dual", None):
+        L = tetlap.laplacian(V, T, kind or "primal")
+        assert tetlap.check(L, V, T, kind=kind, nsd=False).symmetric
+        with pytest.raises(tetlap.OptionError, match=r"non-negative diagonal.*-K"):
+            tetlap.check(-L, V, T, kind=kind)
+    with pytest.raises(tetlap.OptionError, match="non-negative diagonal"):
+        tetlap.analysis.negative_weights(-L, V, T)
+    with pytest.raises(tetlap.OptionError, match="non-negative diagonal"):
+        W, C = tetlap.meshes.ball(300, seed=2)                 # Delaunay: a negative diagonal
+        tetlap.check(-tetlap.cell_laplacian(W, C), W, C, kind="cell")
+    # a broken Laplacian of the right sign is reported, not refused
+    bad = L.tolil()
+    bad[0, 1] = -5.0
+    assert tetlap.check(bad.tocsr(), V, T, nsd=False).symmetric is False

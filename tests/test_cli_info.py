@@ -8,6 +8,7 @@ import json
 import sys
 import warnings
 
+import numpy as np
 import pytest
 
 import tetlap
@@ -37,7 +38,7 @@ def test_info_json_on_the_built_in_mesh():
     assert out.returncode == 0, out.stderr
     result = strict_json(out.stdout)
     assert list(result)[:2] == ["schema_version", "source"]
-    assert result["schema_version"] == tetlap.info.SCHEMA_VERSION == 3
+    assert result["schema_version"] == tetlap.info.SCHEMA_VERSION == 4
     assert result["source"] == _mesh.BUILT_IN
     for key in ("n_vertices", "n_tets", "n_boundary_vertices", "non_delaunay_face_fraction",
                 "min_dihedral_deg"):
@@ -235,3 +236,109 @@ def test_plots_are_named_after_the_mesh(tmp_path, monkeypatch, capsys):
     out, err = capsys.readouterr()
     json.loads(out)                                   # the file list goes to stderr
     assert "ball_weights.png" in err and (folder / "ball_weights.png").is_file()
+
+
+# ---- verdicts, folds and what to do ---------------------------------------------------
+
+
+def table(out: str) -> dict:
+    """{property: (primal cell, dual cell)} of the text report's table."""
+    lines = out.split("\nproperty")[1].split("\n(mass:")[0].splitlines()[1:]
+    rows = {}
+    for line in lines:
+        label, cells = line[:34].strip(), line[34:].split()
+        half = len(cells) // 2
+        rows[label] = (" ".join(cells[:half]), " ".join(cells[half:]))
+    return rows
+
+
+def test_every_row_with_a_verdict_shows_it_and_the_folds_are_named(given_mesh, capsys):
+    """Issue 37.11: on a folded mesh `info` printed the linear-precision residual bare
+    (3.081e-05) where `check` and `--json` said it fails. Every row whose JSON has a
+    verdict shows it beside its number, as --json decides it; the folded tets and the
+    vertices they spoil are named."""
+    from test_diagnostics import folded_cube
+
+    V, T = folded_cube()
+    given_mesh(V, T)
+    assert cli.main(["info", "--no-regular", "--no-nsd"]) == 0
+    out = capsys.readouterr().out
+    assert cli.main(["info", "--no-regular", "--no-nsd", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    rows = table(out)
+    for label, (ok, value) in {"zero row sums (max |row sum|)": ("row_sums_ok", "max_row_sum"),
+                               "linear precision (residual)": ("linear_precision_ok",
+                                                               "linear_precision_residual")}.items():
+        for cell, kind in zip(rows[label], ("primal", "dual")):
+            r = result[kind]
+            assert cell == f"{'yes' if r[ok] else 'NO'} {r[value]:.3e}", (label, kind)
+    assert rows["linear precision (residual)"][0].startswith("NO ")
+    m = result["mesh"]
+    tets = np.flatnonzero(tetlap.diagnostics.folded_tets(V, T))
+    vertices = np.flatnonzero(tetlap.diagnostics.folded_vertices(V, T))
+    assert m["folded_tets"] == tets[:10].tolist() and m["n_folded_tets"] == len(tets) > 0
+    assert m["folded_vertices"] == vertices[:10].tolist() and m["n_folded_vertices"] == len(vertices)
+    line = next(line for line in out.splitlines() if line.startswith("folded: "))
+    assert ", ".join(map(str, tets)) in line and ", ".join(map(str, vertices[:10])) in line
+    assert "untangle" in out.split("what to do:")[1]
+
+
+def test_info_of_the_polyfem_microstructure_says_no(capsys):
+    from conftest import MESH_DIR, corpus_mesh
+
+    corpus_mesh("polyfem_microstructure_p1.msh")                 # skips without the corpus
+    assert cli.main(["info", str(MESH_DIR / "polyfem_microstructure_p1.msh")]) == 0
+    out = capsys.readouterr().out
+    primal, dual = table(out)["linear precision (residual)"]
+    assert primal.startswith("NO 3.08") and dual.startswith("NO ")
+    assert "folded: 8 tets" in out and "298, 624, 630, 728, 952, 2380, 2590, 5722;" in out
+
+
+def advice(out: str) -> list[str]:
+    return [line[2:] for line in out.split("\nwhat to do:\n")[1].splitlines()] if (
+        "\nwhat to do:\n" in out) else []
+
+
+def test_info_says_what_to_do_and_each_step_fixes_what_it_found(given_mesh, capsys):
+    """Issue 37.23: `tetlap info` listed problems and no way out. It now advises the
+    primal where the dual is indefinite, mass="mixed" where circumcentric masses are not
+    positive, and regular_weights where they remove the negative interior weights; each
+    step, done, fixes what it names. In plain words: no "margin ... (0 non-zero)" or
+    "certificate: N faces"; --no-regular is named beside the search's time."""
+    V, T = tetlap.meshes.weighted_ball(600, 0.5, seed=1)             # regular, not Delaunay
+    given_mesh(V, T)
+    assert cli.main(["info"]) == 0
+    out = capsys.readouterr().out
+    steps = advice(out)
+    assert len(steps) == 3, steps
+    primal, mixed, weights = steps
+    assert 'tetlap.laplacian(V, T, "primal")' in primal
+    assert tetlap.check(tetlap.laplacian(V, T, "primal"), V, T).nsd is True
+    assert 'mass="mixed"' in mixed
+    used = tetlap.diagnostics.referenced_vertices(V, T)
+    assert tetlap.mass(V, T, "mixed").diagonal()[used].min() > 0
+    assert "tetlap.regular_weights(V, T).weights" in weights and "weights=w" in weights
+    w = tetlap.regular_weights(V, T).weights
+    assert tetlap.check(tetlap.laplacian(V, T, "dual", weights=w), V, T,
+                        nsd=False).n_negative_interior == 0
+    section = out.split("regular (weighted Delaunay):")[1]
+    assert "non-zero)" not in section and "certificate" not in section
+    assert "margin" not in section and "(--no-regular skips it)" in section
+    # without the search, the advice says how to get it
+    assert cli.main(["info", "--no-regular", "--no-nsd"]) == 0
+    assert any("without --no-regular" in step for step in advice(capsys.readouterr().out))
+    # a mesh with nothing to fix gets no advice
+    given_mesh(*tetlap.meshes.cube(3))
+    assert cli.main(["info"]) == 0
+    assert advice(capsys.readouterr().out) == []
+
+
+def test_a_mesh_that_is_not_regular_is_said_so_in_plain_words(given_mesh, capsys):
+    from test_diagnostics import folded_cube
+
+    given_mesh(*folded_cube())
+    assert cli.main(["info", "--no-nsd"]) == 0
+    out = capsys.readouterr().out
+    section = out.split("regular (weighted Delaunay):")[1]
+    assert "no (proved)" in section and "proof: " in section
+    assert "certificate" not in section and "margin" not in section

@@ -157,8 +157,10 @@ def test_weighted_dual_gradients_match_differences():
     fdw = differences(lambda x: float(tetlap.mass(V, T, "circumcentric", weights=x).diagonal() @ f),
                       w, 1e-4 * h * h)
     assert rel_err(g.dweights, fdw) < TOL
-    # the primal does not depend on the weights
-    _, _, zero = tetlap.dirichlet_energy(V, T, f, "primal", weights=w, return_weights_gradient=True)
+    # the primal does not depend on the weights: it refuses them (issue 37: ignored)
+    with pytest.raises(tetlap.OptionError, match="weights"):
+        tetlap.dirichlet_energy(V, T, f, "primal", weights=w, return_weights_gradient=True)
+    _, _, zero = tetlap.dirichlet_energy(V, T, f, "primal", return_weights_gradient=True)
     assert not zero.any()
 
 

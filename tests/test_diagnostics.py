@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from scipy.spatial import Delaunay
@@ -279,3 +281,91 @@ def test_topology_functions_take_v_and_t_a_mesh_object_or_t_and_n():
         d.interior_vertices(V[:-30], T)
     with pytest.raises(TypeError, match="mesh object"):
         d.boundary_vertices(mesh, T)
+
+
+# ---- folds ------------------------------------------------------------------------------
+
+
+def folded_cube():
+    """A jittered grid with one interior vertex pulled through its star (past a
+    neighbour): the tets around it overlap their neighbours."""
+    V, T = tetlap.meshes.cube(4, jitter=0.1, seed=5)
+    i = int(np.flatnonzero(d.interior_vertices(V, T))[7])
+    j = next(int(v) for v in T[(T == i).any(axis=1)].ravel() if v != i and d.interior_vertices(V, T)[v])
+    V = V.copy()
+    V[i] += 1.6 * (V[j] - V[i])
+    return V, T
+
+
+def same_side(V, T):
+    """Per interior face, with NumPy determinants: the two opposite vertices on one side."""
+    tets, opposite = d.interior_faces(V, T)
+    face = np.array([[v for v in T[s] if v != o] for s, o in zip(tets[:, 0], opposite[:, 0])])
+    P = V[face]
+    side = lambda q: np.sign(np.einsum("ij,ij->i", np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]),
+                                       V[q] - P[:, 0]))
+    return side(opposite[:, 0]) == side(opposite[:, 1])
+
+
+def interior_vertices_without_linear_precision(V, T, kind):
+    L = tetlap.laplacian(V, T, kind)
+    used = d.referenced_vertices(V, T)
+    low, high = V[used].min(axis=0), V[used].max(axis=0)
+    r = np.abs(L @ (V - (low + high) / 2)).max(axis=1) / (abs(L).max() * np.linalg.norm(high - low))
+    return np.flatnonzero((r > 1e-10) & d.interior_vertices(V, T))
+
+
+def test_folds_are_decided_by_the_geometry_not_the_vertex_order():
+    """Issue 37.11: a fold (two tets on one side of their face: the mesh overlaps itself)
+    is what spoils linear precision; a tet whose vertex order alone is reversed is no
+    fold. The folded faces against NumPy determinants, under every vertex order; the
+    folded tets are the smaller side; the vertices of folded faces are exactly the
+    interior vertices where linear precision fails."""
+    rng = np.random.default_rng(3)
+    V, T = folded_cube()
+    folded = d.folded_faces(V, T)
+    assert folded.any() and (folded == same_side(V, T)).all()
+    tets = d.folded_tets(V, T)
+    assert 0 < tets.sum() < 12
+    orders = np.array(list(itertools.permutations(range(4))))
+    for _ in range(3):                                   # any vertex order of any tet
+        T2 = np.take_along_axis(T, orders[rng.integers(0, 24, len(T))], axis=1)
+        assert (d.folded_faces(V, T2) == folded).all()
+        assert (d.folded_tets(V, T2) == tets).all()
+    # every folded face has exactly one named tet (the sides differ across it)
+    pairs, _ = d.interior_faces(V, T)
+    assert (tets[pairs[folded]].sum(axis=1) == 1).all()
+    spoiled = np.flatnonzero(d.folded_vertices(V, T) & d.interior_vertices(V, T))
+    for kind in ("primal", "dual"):
+        assert interior_vertices_without_linear_precision(V, T, kind).tolist() == spoiled.tolist()
+        # check's failed linear precision names the folds
+        r = tetlap.check(tetlap.laplacian(V, T, kind), V, T, nsd=False)
+        assert r.linear_precision_ok is False
+        (note,) = [n for n in r.notes if "folds over itself" in n]
+        assert ", ".join(map(str, np.flatnonzero(tets))) in note
+    # a mesh of mixed vertex order, unfolded: nothing
+    V, T = tetlap.meshes.cube(3, jitter=0.2, seed=2)
+    T = T.copy()
+    T[::3, [0, 1]] = T[::3, [1, 0]]
+    assert d.orientation(V, T).min() < 0
+    assert not d.folded_faces(V, T).any() and not d.folded_tets(V, T).any()
+    assert not d.folded_vertices(V, T).any()
+    s = d.summary(V, T)
+    assert (s["n_folded_faces"], s["n_folded_tets"], s["folded_tets"]) == (0, 0, [])
+
+
+def test_folded_tets_of_the_polyfem_microstructure():
+    """The corpus mesh of the issue: 8 tets inverted against their neighbours (its 8
+    negative tets), folding 32 faces; check fails linear precision exactly at the
+    interior vertices of those faces."""
+    from conftest import corpus_mesh
+
+    V, T = corpus_mesh("polyfem_microstructure_p1.msh")
+    tets = np.flatnonzero(d.folded_tets(V, T))
+    assert tets.tolist() == np.flatnonzero(d.signed_volumes(V, T) < 0).tolist()
+    assert len(tets) == 8 and d.folded_faces(V, T).sum() == 32
+    spoiled = np.flatnonzero(d.folded_vertices(V, T) & d.interior_vertices(V, T))
+    for kind in ("primal", "dual"):
+        assert interior_vertices_without_linear_precision(V, T, kind).tolist() == spoiled.tolist()
+    # reordering the vertices of every tet changes nothing
+    assert (d.folded_tets(V, T[:, [1, 0, 2, 3]]) == d.folded_tets(V, T)).all()

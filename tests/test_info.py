@@ -171,14 +171,16 @@ def assert_operator_report(V, T, kind, r, boundary):
     assert r["min_weight"] == w.min()
     assert r["n_negative"] == negative.sum() and r["n_negative_interior"] == (negative & inner).sum()
     assert r["negative_fraction"] == pytest.approx(negative.mean())
-    # linear precision: max |(L V)_i| at interior vertices / (max|L| * bbox diagonal of the
-    # vertices in tets); the masses over those vertices too (issue 30: an unused vertex
-    # takes no part)
+    # linear precision: max |(L (V - c))_i| at interior vertices / (max|L| * bbox diagonal
+    # of the vertices in tets), c the box's centre (issue 37: the frame of the origin
+    # failed a perfect operator 1e6 away); the masses over those vertices too (issue 30:
+    # an unused vertex takes no part)
     used = np.isin(np.arange(n), T)
     interior = ~boundary & used
     if interior.any():
-        diagonal = np.linalg.norm(V[used].max(axis=0) - V[used].min(axis=0))
-        residual = np.abs((L @ V)[interior]).max() / (scale * diagonal)
+        low, high = V[used].min(axis=0), V[used].max(axis=0)
+        diagonal = np.linalg.norm(high - low)
+        residual = np.abs((L @ (V - (low + high) / 2))[interior]).max() / (scale * diagonal)
         assert r["linear_precision_residual"] == pytest.approx(residual, rel=1e-6, abs=1e-13)
     else:
         assert r["linear_precision_residual"] is None
@@ -436,6 +438,30 @@ def test_plot_names_files_and_titles_after_the_mesh(tmp_path, monkeypatch):
     masses = titles[2]
     assert "barycentric mass: 0 of " in masses and "vertices with mass <= 0" in masses
     assert "% of the weights negative" in titles[1]
+
+
+def test_the_plot_titles_count_what_the_table_counts(tmp_path, monkeypatch):
+    """Issue 37.27: the titles of ``--plot`` counted masses <= 0 over every vertex (3 where
+    the table said 0: the vertices in no tet) and weights < 0 without the table's
+    tolerance (48 rounding zeros of the dual of a Kuhn grid). Both now come from the
+    table's own rules (analysis.lumped_masses, analysis.negative_weights)."""
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    V, T = tetlap.meshes.cube(3)                       # Kuhn: dual weights of -2e-17
+    V = np.vstack([V, [[5.0, 5.0, 5.0], [6.0, 5.0, 5.0], [5.0, 6.0, 5.0]]])  # in no tet
+    titles = []
+    monkeypatch.setattr(Figure, "savefig", lambda fig, path, **kwargs: titles.extend(
+        ax.get_title() for ax in fig.axes))
+    info.plot(V, T, tmp_path, name="kuhn")
+    r = info.report(V, T, nsd=False, regular=False, progress=False)
+    used = len(V) - 3
+    for kind, mass in PAIRS.items():
+        share = 100 * r[kind]["n_negative"] / r[kind]["n_edges"]
+        assert f"{kind} Laplacian: {share:.2f}% of the weights negative" in titles
+        assert (f"{mass} mass: {r[kind]['mass_nonpositive']} of {used} vertices with "
+                "mass <= 0") in titles
+    assert r["dual"]["n_negative"] == 0 and r["primal"]["mass_nonpositive"] == 0
 
 
 def test_the_linear_bin_around_zero_is_labelled(tmp_path, monkeypatch):

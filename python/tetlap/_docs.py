@@ -48,7 +48,7 @@ kind : {"barycentric", "circumcentric", "mixed", "fem"}, default "barycentric"
     ``"mixed"``: the circumcentric cells with every centre that falls outside its face or
     tet moved inside it (libigl's "hybrid Voronoi" rule: to the midpoint of the edge, or
     the centre of the face, opposite its most negative barycentric coordinate), diagonal
-    and positive on every mesh. ``"fem"``: the consistent P1 mass
+    and positive on every mesh; of the plain circumcentres (no vertex weights). ``"fem"``: the consistent P1 mass
     ``Vol (1 + delta_ab) / 20`` (triangles: ``/ 12``), not diagonal.""",
     "options": """\
 boundary : {"circumcentric", "barycentric"}, default "circumcentric"
@@ -61,7 +61,8 @@ weights : (n,) array-like of real numbers, optional
     Vertex weights in squared-length units for the dual and the circumcentric mass:
     weighted circumcenters (equal power ``|c - x_i|^2 - w_i``), i.e. the orthogonal dual
     of a regular triangulation (a power diagram). ``None`` or zeros: the plain dual.
-    Tets only.
+    Tets only. A request that does not depend on them (the primal, the barycentric,
+    mixed or FEM mass, alone) refuses them with :class:`tetlap.OptionError`.
 degenerate : {"raise", "skip"}, default "raise"
     A zero-volume element (exactly flat), or one whose values leave the float64 range
     (a needle or a flat tet whose exact weights or masses overflow; see README

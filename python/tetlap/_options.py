@@ -22,7 +22,7 @@ import numbers
 from .errors import OptionError
 
 __all__ = ["positive", "non_negative", "tolerance", "finite", "count", "threads", "at_most",
-           "at_least", "flag", "MAX_SECONDS"]
+           "at_least", "flag", "weights_used", "MAX_SECONDS", "UNWEIGHTED_KINDS"]
 
 
 def _real(value) -> bool:
@@ -111,3 +111,35 @@ def at_least(value, least, name: str):
     if value < least:
         raise OptionError(f"{name} must be at least {least:g}")
     return value
+
+
+#: The kinds whose values do not depend on vertex weights: the primal Laplacian (and the
+#: affine ``t = 0``, which is the primal), the barycentric, mixed (plain circumcentres,
+#: moved inside) and FEM masses. Weights move the centres of the dual: they belong to the
+#: dual Laplacian (``"dual"``, every affine ``t > 0``) and the circumcentric mass.
+UNWEIGHTED_KINDS = ("primal", "barycentric", "mixed", "fem")
+
+
+def weights_used(given: bool, kinds, name: str = "weights") -> None:
+    """Refuse vertex weights (``given``) for a request none of whose ``kinds`` (the
+    Laplacian and mass kinds asked for; None for a part not asked) depends on them: the
+    result would ignore them silently. A kind this rule does not know passes (the core
+    names a bad kind).
+
+    >>> weights_used(True, ("dual", "barycentric"))
+    >>> weights_used(True, ("primal", "barycentric"))
+    Traceback (most recent call last):
+    ...
+    tetlap.errors.OptionError: weights: vertex weights belong to the dual ...
+    """
+    asked = [k for k in kinds if k is not None]
+    plain = [k for k in asked if (isinstance(k, str) and k in UNWEIGHTED_KINDS)
+             or (_real(k) and k == 0)]
+    if given and asked and len(plain) == len(asked):
+        what = " and ".join(repr(k) for k in asked)
+        raise OptionError(
+            f"{name}: vertex weights belong to the dual (they move its centres to power "
+            f'centres, which the dual Laplacian, "dual" or an affine t > 0, and the '
+            f"circumcentric mass use); {what} {'does' if len(asked) == 1 else 'do'} not "
+            f'depend on them and would ignore them: drop them, or ask for "dual" or '
+            f'"circumcentric"')

@@ -25,7 +25,7 @@ from . import _arrays, _core, _options, _sparse, assembly, diagnostics
 from ._interrupt import interruptible
 from .errors import OptionError, ShapeError
 
-__all__ = ["check", "Report", "negative_weights", "NEGATIVE_TOL", "TOL", "NSD_RTOL", "DENSE_NSD_MAX", "SPARSE_NSD_MAX"]
+__all__ = ["check", "Report", "negative_weights", "lumped_masses", "NEGATIVE_TOL", "TOL", "NSD_RTOL", "DENSE_NSD_MAX", "SPARSE_NSD_MAX"]
 
 #: A weight counts as negative when ``w < -NEGATIVE_TOL * max|w|``: weights that are zero
 #: up to rounding (right dihedral angles of a Kuhn grid) do not count.
@@ -147,7 +147,11 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     Parameters
     ----------
     L : (n, n) SciPy sparse array or matrix (any format)
-        In the paper's sign convention (``L[i, i] = -sum_j L[i, j]``). Not modified.
+        In the paper's sign convention (``L[i, i] = -sum_j L[i, j]``, negative where the
+        weights sum to more than zero). A matrix in the stiffness sign (``K = -L``, as
+        LaPy and scikit-fem hold it: no negative diagonal entry and a positive one) is
+        refused with :class:`tetlap.OptionError` (pass ``-K``): every sign-dependent row
+        would answer for the negated operator. Not modified.
     V : (n, d) array-like of real numbers
         Vertex positions.
     T : (m, 4) array-like of integers, optional
@@ -181,8 +185,17 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
 
     Notes
     -----
-    Linear precision (Eq. 26) is ``max_i |(L V)_i|`` over interior vertices relative to
-    ``max|L| * diameter``; it applies to meshes in R^3 (an immersed mesh is curved).
+    Linear precision (Eq. 26) is ``max_i |(L (V - c))_i|`` over interior vertices relative
+    to ``max|L| * diameter``, with ``c`` the centre and ``diameter`` the diagonal of the
+    bounding box of the vertices in tets; it applies to meshes in R^3 (an immersed mesh is
+    curved). Measured in that frame, the number does not depend on where the mesh lies
+    (a mesh offset by ``1e12`` gets the numbers of the mesh translated back): in the frame
+    of the origin it would add ``c`` times each row's sum, whose rounding is the row-sum
+    check's business (``|row sum| <= 1e-10 max|L|``, which adds at most half the tolerance
+    here, since ``|x_i - c| <= diameter / 2``), and a perfect operator 1e6 away from the
+    origin would fail. One tolerance (``TOL``, relative to ``max|L|`` times a length of
+    the mesh) thus serves both checks, at every offset and scale. ``kind="cell"`` measures
+    the cell centres in the same frame.
 
     ``L`` counts as negative semidefinite when ``-L + 1e-9 diag(|L_ii|)`` is positive
     semidefinite (``NSD_RTOL``): the tolerance of each vertex is relative to its own row
@@ -229,7 +242,9 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
 
         return cells._report(L, V, T, M, weights=weights, negative_tol=negative_tol, nsd=nsd)
     if weights is not None:
-        raise OptionError('weights= applies to kind="cell" only')
+        raise OptionError('weights= applies to kind="cell" only: the vertex weights of the '
+                          "dual whose power centres L's cells were built with; the other "
+                          "kinds read L as given")
     return _check(L, V, T, M, kind=kind, negative_tol=negative_tol, nsd=nsd)
 
 
@@ -239,12 +254,38 @@ def negative_weights(L, V, T, on_boundary=None) -> tuple[int, int]:
     :func:`check` (``w < -NEGATIVE_TOL * max|w|``, counted by the core in one pass).
 
     ``V``, ``T`` validated (float64 points, int64 tets); ``on_boundary`` the (n,) boundary
-    vertex mask when the caller has it.
+    vertex mask when the caller has it. ``L`` in the stiffness sign (``-L``) is refused, as
+    by :func:`check`.
     """
+    L = _arrays.laplacian(L, V.shape[0])
     if on_boundary is None:
         on_boundary = diagnostics.boundary_vertices(T, V.shape[0])
     c = _core.check_operator(V, T, _sparse.arrays(L), on_boundary, NEGATIVE_TOL)
     return int(c["n_negative"]), int(c["n_negative_inner"])
+
+
+def _fold_note(V, T) -> list[str]:
+    """The note of a failed linear precision on a folded mesh: its folded tets and the
+    vertices they spoil (:mod:`tetlap.diagnostics`), where every operator loses linear
+    precision; none if the mesh has no fold."""
+    vertices = np.flatnonzero(diagnostics.folded_vertices(V, T))
+    if not len(vertices):
+        return []
+    tets = np.flatnonzero(diagnostics.folded_tets(V, T))
+    listed = lambda x: ", ".join(map(str, x[:diagnostics.LISTED])) + (
+        ", ..." if len(x) > diagnostics.LISTED else "")
+    return [f"linear precision: the mesh folds over itself ({len(tets)} tets overlap a "
+            f"neighbour: {listed(tets)}); every Laplacian loses linear precision at the "
+            f"{len(vertices)} vertices of the folded faces: {listed(vertices)}"]
+
+
+def lumped_masses(M, T, n: int) -> np.ndarray:
+    """The lumped masses (row sums of ``M``, (n, n)) of the vertices in tets ``T``, in
+    vertex order: the masses :func:`check` reports (``mass_min``, ``mass_nonpositive``)
+    and ``tetlap info --plot`` draws and counts. A vertex in no tet has no mass to check
+    (its 0 is no fault of the mass)."""
+    M = _arrays.matrix(M, n, "M")
+    return np.asarray(M.sum(axis=1)).ravel()[diagnostics.referenced_vertices(T, n)]
 
 
 def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=None,
@@ -255,7 +296,9 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
     weights=weights)`` itself (``weights``: the vertex weights of a weighted dual, for its
     element certificate)."""
     n = V.shape[0]
-    L = _arrays.matrix(L, n, finite=False)  # a NaN or Inf is reported, not refused
+    # a NaN or Inf is reported, not refused; the stiffness sign (-L) is refused: its every
+    # sign-dependent row would answer for the negated operator
+    L = _arrays.laplacian(L, n, finite=False)
     if boundary is None:
         boundary = diagnostics.boundary_vertices(T, n)
     c = _core.check_operator(V, T, _sparse.arrays(L), boundary, float(negative_tol))
@@ -266,6 +309,8 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
         notes.append("linear precision: not applicable to an immersed (d > 3) mesh")
     elif lp is None:
         notes.append("linear precision: the mesh has no interior vertices")
+    elif not lp < TOL:
+        notes += _fold_note(V, T)
 
     finite = c["finite"]
     if not finite:
@@ -305,8 +350,8 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
     )
     if M is not None:
         M = _arrays.matrix(M, n, "M")
-        lumped = np.asarray(M.sum(axis=1)).ravel()[diagnostics.referenced_vertices(T, n)]
-        report.mass_min = float(lumped.min())          # over the vertices in tets
+        lumped = lumped_masses(M, T, n)
+        report.mass_min = float(lumped.min())
         report.mass_nonpositive = int((lumped <= 0).sum())
         report.mass_total = float(M.sum())
         report.mesh_volume = (float(np.abs(diagnostics.signed_volumes(V, T)).sum())
@@ -400,17 +445,19 @@ def _nsd_of(S: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights)
     if answer is not None:
         return answer
     verdict, name, details = _core.negative_semidefinite(n, _sparse.arrays(S), tol)
+    # the rows of L: the mesh's vertices, or the cells of a cell-centred operator
+    one, many = ("cell", "cells") if kind == "cell" else ("vertex", "vertices")
     if name == "local certificate":
         return verdict, None, (f"local certificate: {details['groups']} neighbourhoods of <= "
-                               f"{details['largest']} vertices cover every negative weight")
+                               f"{details['largest']} {many} cover every negative weight")
     if name == "indefinite":
         return False, details["rayleigh"], (
-            f"witness: a vector on {details['support']} vertices around vertex "
+            f"witness: a vector on {details['support']} {many} around {one} "
             f"{details['vertex']} with Rayleigh quotient {details['rayleigh']:.3e}")
     if name != "undetermined":
         return verdict, None, name
     reason = (f"{details['uncovered']} negative weights not covered by neighbourhoods of "
-              f"<= {_core.MAX_GROUP} vertices")
+              f"<= {_core.MAX_GROUP} {many}")
     live, zero_diagonal = _live_rows(S, diagonal)
     if zero_diagonal is not None:
         return False, None, (f"row {zero_diagonal} of L has entries but a zero diagonal "
@@ -421,8 +468,10 @@ def _nsd_of(S: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights)
             return negatives == 0, None, (f"inertia of a sparse LDL^T of -L + {NSD_RTOL:.0e} "
                                           f"diag(|L_ii|): {negatives} negative pivots ({reason})")
         reason += "; the LDL^T pivoted off the diagonal"
-    # a vertex in no tet whose row is empty takes no part (its eigenvalue 0 is no answer)
-    part = diagnostics.referenced_vertices(T, n) | (np.asarray(abs(S).sum(axis=1)).ravel() > 0)
+    # a vertex in no tet whose row is empty takes no part (its eigenvalue 0 is no answer);
+    # every cell of a cell operator does
+    mesh = np.ones(n, dtype=bool) if kind == "cell" else diagnostics.referenced_vertices(T, n)
+    part = mesh | (np.asarray(abs(S).sum(axis=1)).ravel() > 0)
     if part.sum() <= DENSE_NSD_MAX:
         verdict, lam = (_dense(S, diagonal) if part.all()
                         else _dense(S[part][:, part], diagonal[part]))

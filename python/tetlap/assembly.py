@@ -13,6 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
+from ._options import weights_used
 from ._docs import shared_docs
 
 __all__ = [
@@ -39,6 +40,7 @@ def _assemble(what: tuple, V, T, weights, boundary, degenerate, threads):
     V = _arrays.points(V)
     T = _arrays.elements(T)
     w = _arrays.vertex_weights(weights, V.shape[0])
+    weights_used(w is not None and T.shape[1] == 4, what[1:])  # triangles: the core refuses
     options = _options(boundary, degenerate, threads)
     return _core.assemble(V, T, what, weights=w, options=options), V.shape[0]
 

@@ -25,6 +25,8 @@ import scipy.sparse as sp
 
 from . import _arrays, _core
 from ._docs import shared_docs
+from ._float_range import LARGEST, SMALLEST, unit_scale
+from .errors import DegenerateElementError
 
 __all__ = ["gradient", "divergence", "element_gradients"]
 
@@ -40,9 +42,13 @@ def element_gradients(V, T=None, *, degenerate="raise",
     ----------
     {mesh}
     degenerate : {{"raise", "skip"}}, default "raise"
-        A zero-volume element (or one whose gradients leave the float64 range) raises
-        :class:`tetlap.DegenerateElementError` naming it, or with ``"skip"`` gets zero
-        gradients and measure 0.
+        A zero-volume element (or one whose gradients or measure leave the float64 range)
+        raises :class:`tetlap.DegenerateElementError` naming it, or with ``"skip"`` gets
+        zero gradients and measure 0. A mesh far from unit size is computed scaled by a
+        power of two (exact, :func:`tetlap._float_range.unit_scale`) and scaled back, so
+        only a value beyond the range is refused: the volumes of a unit-shaped mesh of
+        coordinates ``1e-110`` (``1e-330``) are, its gradients (:func:`gradient`) are
+        not.
     threads : int, optional
         Worker threads (``None``: all cores); the output is bitwise identical for any.
 
@@ -66,10 +72,46 @@ def element_gradients(V, T=None, *, degenerate="raise",
     >>> g[0].tolist(), vol.tolist()
     ([[-0.5, -1.0, -1.0], [0.5, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.3333333333333333])
     """
-    V, T = _arrays.mesh(V, T)
+    V, T, g, vol, k = _scaled(*_arrays.mesh(V, T), degenerate, threads)
+    e = (T.shape[1] - 1) * k                          # volume: length^3 (area: length^2)
+    keep = _in_range(vol, e, degenerate)
+    if not keep.all():
+        g[~keep], vol[~keep] = 0.0, 0.0
+    return (np.ldexp(g, -k), np.ldexp(vol, e)) if k else (g, vol)
+
+
+def _scaled(V, T, degenerate, threads):
+    """``(V, T, g, vol, k)``: ``V``, ``T`` validated and the core's gradients and measures of the mesh ``V / 2^k``, exact,
+    ``2^k`` the scale of :func:`tetlap._float_range.unit_scale` (the operators' rule: 0,
+    the plain path, for a mesh of any real-world unit). A mesh of coordinates ``1e-110``
+    then has gradients of ``1e110`` (its volumes of ``1e-330`` no longer read as
+    "degenerate"), one of ``1e150`` gradients of ``1e-150``; the callers scale back what
+    they return by the power of two of its unit, and check its range."""
     V = _arrays.points(V)
     T = _arrays.elements(T)
-    return _core.gradients(V, T, options={"degenerate": degenerate, "threads": threads})
+    used, T_used = _arrays.used_vertices(V, T)
+    k = int(np.frexp(unit_scale(V[used], T_used))[1]) - 1
+    g, vol = _core.gradients(np.ldexp(V, -k) if k else V, T,
+                             options={"degenerate": degenerate, "threads": threads})
+    return V, T, g, vol, k
+
+
+def _in_range(largest: np.ndarray, e: int, degenerate: str) -> np.ndarray:
+    """(m,) bool: the elements whose ``largest`` value (in the scaled frame), times
+    ``2^e``, is zero or a normal float64. An element beyond raises
+    :class:`tetlap.DegenerateElementError` naming it, or with ``degenerate="skip"`` is
+    dropped (False), as the operators drop theirs."""
+    with np.errstate(over="ignore", under="ignore"):
+        scaled = np.ldexp(largest, e)
+    bad = (largest != 0) & ~((np.abs(scaled) >= SMALLEST) & (np.abs(scaled) <= LARGEST))
+    if bad.any() and degenerate == "raise":
+        t = int(np.argmax(bad))
+        size = round(float(np.log10(abs(largest[t]))) + e * float(np.log10(2)))
+        raise DegenerateElementError(
+            f"element {t}: its values leave the float64 range (normal magnitudes "
+            f"{SMALLEST:.2g} to {LARGEST:.2g}; here about 1e{size}); rescale the mesh, or "
+            'pass degenerate="skip" to drop it', element=t)
+    return ~bad
 
 
 def _operator(g: np.ndarray, T, n: int) -> sp.csr_array:
@@ -101,8 +143,9 @@ def gradient(V, T=None, *, degenerate="raise", threads=None) -> sp.csr_array:
     ----------
     {mesh}
     degenerate : {{"raise", "skip"}}, default "raise"
-        As :func:`element_gradients`: a skipped element's rows are zero (their entries stay
-        in the pattern as explicit zeros).
+        As :func:`element_gradients`, for the gradients alone (a unit-shaped mesh has them
+        from coordinates of ``1e-300`` to ``1e300``): a skipped element's rows are zero
+        (their entries stay in the pattern as explicit zeros).
     threads : int, optional
         Worker threads (``None``: all cores); the output is bitwise identical for any.
 
@@ -126,8 +169,11 @@ def gradient(V, T=None, *, degenerate="raise", threads=None) -> sp.csr_array:
     >>> G.shape, (G @ [0.0, 1.0, 2.0, 3.0]).tolist()
     ((3, 4), [1.0, 2.0, 3.0])
     """
-    V, T = _arrays.mesh(V, T)
-    g, _ = element_gradients(V, T, degenerate=degenerate, threads=threads)
+    V, T, g, _, k = _scaled(*_arrays.mesh(V, T), degenerate, threads)
+    if k:
+        keep = _in_range(np.abs(g).max(axis=(1, 2)), -k, degenerate)
+        g = np.ldexp(g, -k)
+        g[~keep] = 0.0
     return _operator(g, T, len(V))
 
 
@@ -147,7 +193,8 @@ def divergence(V, T=None, *, degenerate="raise", threads=None) -> sp.csr_array:
     ----------
     {mesh}
     degenerate : {{"raise", "skip"}}, default "raise"
-        As :func:`gradient`.
+        As :func:`gradient`, for the entries ``vol grad(lambda)`` (``length^2``): a unit-
+        shaped mesh has them from coordinates of about ``1e-150`` to ``1e150``.
     threads : int, optional
         Worker threads (``None``: all cores); the output is bitwise identical for any.
 
@@ -168,9 +215,14 @@ def divergence(V, T=None, *, degenerate="raise", threads=None) -> sp.csr_array:
     >>> bool(abs(D @ X)[tetlap.diagnostics.interior_vertices(V, T)].max() < 1e-15)
     True
     """
-    V, T = _arrays.mesh(V, T)
-    g, vol = element_gradients(V, T, degenerate=degenerate, threads=threads)
-    return _divergence(_operator(g, T, len(V)), vol)
+    V, T, g, vol, k = _scaled(*_arrays.mesh(V, T), degenerate, threads)
+    e = (T.shape[1] - 2) * k                     # vol grad: length^2 (triangles: length)
+    if not k:
+        return _divergence(_operator(g, T, len(V)), vol)
+    keep = _in_range(np.abs(g).max(axis=(1, 2)) * vol, e, degenerate)
+    D = _divergence(_operator(g, T, len(V)), np.where(keep, vol, 0.0))
+    D.data = np.ldexp(D.data, e)
+    return D
 
 
 def _divergence(G: sp.csr_array, vol: np.ndarray) -> sp.csr_array:

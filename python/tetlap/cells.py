@@ -15,9 +15,9 @@ import dataclasses
 import numpy as np
 import scipy.sparse as sp
 
-from . import _arrays, _core, analysis
+from . import _arrays, _core, analysis, diagnostics
 from ._docs import shared_docs
-from .dual import OUTSIDE_TOL, DualGeometry, _outward, dual_geometry
+from .dual import OUTSIDE_TOL, DualGeometry, dual_geometry
 from .errors import DegenerateElementError
 
 __all__ = ["cell_laplacian", "CellReport", "ZERO_TOL"]
@@ -161,8 +161,18 @@ def _report(L, V: np.ndarray, T: np.ndarray, M, *, weights, negative_tol: float,
     """``check(L, V, T, M, kind="cell", weights=weights)`` on validated ``V`` (float64) and
     ``T`` (int64)."""
     m = T.shape[0]
-    L = _arrays.matrix(L, m, finite=False)
-    g = dual_geometry(V, T, weights=weights)
+    L = _arrays.laplacian(L, m, finite=False)           # the stiffness sign refused
+    # the geometry in a frame centred on the box of the vertices in tets (an unused vertex
+    # changes no answer), as the vertex check measures: the centres of a mesh far from
+    # the origin are then as accurate as near it (their rounding is relative to the
+    # mesh's size, not to its offset), and linear precision does not depend on where the
+    # mesh lies
+    used = np.zeros(len(V), dtype=bool)
+    used[T.ravel()] = True
+    low, high = V[used].min(axis=0), V[used].max(axis=0)
+    diameter = float(np.linalg.norm(high - low))
+    g = dual_geometry(np.where(used[:, None], V - (low / 2 + high / 2), 0.0), T,
+                      weights=weights)
     interior = (g.face_tets >= 0).all(axis=1)
     s, t = g.face_tets[interior, 0], g.face_tets[interior, 1]
     on_boundary = np.zeros(m, dtype=bool)
@@ -188,16 +198,10 @@ def _report(L, V: np.ndarray, T: np.ndarray, M, *, weights, negative_tol: float,
     elif not off.any():
         notes.append("linear precision: every cell has a boundary face")
     elif finite:
-        # the diameter of the vertices in tets: an unused vertex changes no answer
-        diameter = float(np.linalg.norm(np.ptp(V[np.unique(T)], axis=0)))
         residual = float(np.abs(L @ g.centres)[off].max()) / (scale * diameter)
     if not finite:
         notes.append("L has NaN or Inf entries: only finiteness and locality are decided")
-    # folded: the face's two tets see it with one orientation (the same sign in d2)
-    outward = _outward(T, g.orientation)
-    faces = np.flatnonzero(interior)[:, None]
-    sign = lambda k: outward[k, (g.tet_faces[k] == faces).argmax(axis=1)]
-    folded = int((sign(s) == sign(t)).sum())
+    folded = int(diagnostics.folded_faces(V, T).sum())   # the two tets on one side
     if folded:
         notes.append(f"{folded} interior faces are folded (their two tets on one side: the "
                      "mesh overlaps itself): linear precision fails at their cells")

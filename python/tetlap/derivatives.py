@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
+from ._options import weights_used
 from .assembly import _options
 from ._docs import shared_docs
 from .errors import DtypeError, ShapeError
@@ -107,11 +108,15 @@ def _mass_cotangent(dM, n: int):
     return ("diagonal", d)
 
 
-def _mesh(V, T, weights):
+def _mesh(V, T, weights, kinds):
+    """Validated ``(V, T, weights)``; weights refused where none of the differentiated
+    ``kinds`` (None: not differentiated) depends on them."""
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
-    return V, T, _arrays.vertex_weights(weights, V.shape[0])
+    w = _arrays.vertex_weights(weights, V.shape[0])
+    weights_used(w is not None, kinds)
+    return V, T, w
 
 
 @_arrays.takes_mesh_object
@@ -153,7 +158,8 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     VJP
         ``dV`` (n, d) float64, ``dphi/dV`` (for an immersed mesh, within the tets' own
         3-spaces); ``dweights`` (n,) float64 ``dphi/dweights`` if ``weights`` were given
-        (zero unless the dual or the circumcentric mass is differentiated), else None;
+        (weights that neither the differentiated Laplacian nor the differentiated mass
+        depends on, such as the primal's, are refused: :class:`tetlap.OptionError`), else None;
         ``value`` the float ``phi``. Bitwise identical for any ``threads``.
 
     {raises}
@@ -181,7 +187,7 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     >>> bool(np.allclose(g.dV.sum(axis=0), 0))  # moving the tet rigidly changes nothing
     True
     """
-    V, T, w = _mesh(V, T, weights)
+    V, T, w = _mesh(V, T, weights, (None if dL is None else kind, None if dM is None else mass))
     n, m = V.shape[0], T.shape[0]
     dl = _laplacian_cotangent(dL, n, m)
     dm = _mass_cotangent(dM, n)
@@ -201,7 +207,7 @@ def _columns(f, n: int) -> np.ndarray:
 
 
 def _energy(V, T, f, lap, mass, weights, boundary, degenerate, threads, return_weights_gradient):
-    V, T, w = _mesh(V, T, weights)
+    V, T, w = _mesh(V, T, weights, (lap, mass))
     F = _columns(f, V.shape[0])
     terms = {"laplacian": lap, "mass": mass}
     dV, dweights, value = _core.vjp(
@@ -232,7 +238,8 @@ def dirichlet_energy(V, T, f, kind="primal", *, boundary="circumcentric", weight
     {kind}
     {options}
     return_weights_gradient : bool, default False
-        Also return ``dE/dweights`` (zero unless the dual is weighted).
+        Also return ``dE/dweights`` (zeros without ``weights``; the primal refuses
+        ``weights``, which it does not depend on).
 
     Returns
     -------
@@ -288,7 +295,8 @@ def mass_energy(V, T, f, kind="barycentric", *, boundary="circumcentric", weight
     {mass_kind}
     {options}
     return_weights_gradient : bool, default False
-        Also return ``dE/dweights`` (zero unless the circumcentric mass is weighted).
+        Also return ``dE/dweights`` (zeros without ``weights``; a mass other than the
+        circumcentric refuses ``weights``, which it does not depend on).
 
     Returns
     -------

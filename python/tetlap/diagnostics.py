@@ -1,5 +1,5 @@
 """Mesh diagnostics: boundary and interior, orientation and volumes, dihedral angles, the
-local Delaunay property, well-centredness, duplicate and non-manifold elements.
+local Delaunay property, well-centredness, duplicate and non-manifold elements, folds.
 
 Every function is computed by the parallel Rust core in ``O(m)`` (faces are matched by a
 counting sort on their smallest vertex, not by a global sort), answers Ctrl-C, validates
@@ -45,6 +45,9 @@ __all__ = [
     "well_centered",
     "non_delaunay_faces",
     "non_delaunay_tets",
+    "folded_faces",
+    "folded_tets",
+    "folded_vertices",
     "face_normals",
     "summary",
 ]
@@ -53,6 +56,9 @@ __all__ = [
 #: if the lifted determinant exceeds ``DELAUNAY_RTOL`` times its Hadamard bound, so
 #: cospherical points (a Kuhn grid's cubes) are not flagged.
 DELAUNAY_RTOL = _core.DELAUNAY_RTOL
+
+#: How many folded tets and vertices :func:`summary` (and ``tetlap info``) names.
+LISTED = 10
 
 # Face opposite corner c, in an order that keeps the tet's orientation (outward for c).
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
@@ -291,6 +297,142 @@ def non_delaunay_tets(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     return bad
 
 
+def _folds(V, T, interior, volume) -> np.ndarray:
+    """Boolean per row of the core's ``interior`` face pairs ``[s, a, t, b]`` (tet ``s``,
+    its corner ``a`` opposite the face, tet ``t``, its corner ``b``): the apexes of the
+    two tets lie on the same side of the face. From the signs of the tets' ``volume``
+    (their determinants are rounded correctly, so the signs are exact) and the parity of
+    each tet's vertex order against the face's; a flat tet folds nothing."""
+    s, a, t, b = interior.T
+    face = T[s[:, None], _FACES[a]]               # outward for a positive tet s: its apex
+    side_s = -np.sign(volume[s])                  # lies on the negative side
+    # tet t as (face in s's order, apex of t): the parity of that reordering of T[t]
+    order = np.column_stack([(T[t][:, None, :] == face[:, :, None]).argmax(axis=2), b])
+    inversions = sum((order[:, i] > order[:, j]) for i in range(4) for j in range(i + 1, 4))
+    side_t = np.sign(volume[t]) * (1 - 2 * (inversions % 2))
+    return (side_s == side_t) & (side_s != 0)
+
+
+@_arrays.takes_mesh_object
+def folded_faces(V, T=None) -> np.ndarray:
+    """Boolean per interior face (order of :func:`interior_faces`): its two tets lie on the
+    same side of it, so they overlap and the mesh folds over itself there. Decided from
+    exact orientation signs, and by the geometry only: a tet whose vertex order alone is
+    reversed (a negative signed volume) folds nothing, a tet inverted against its
+    neighbours folds every face it shares with them. Every Laplacian loses linear precision at
+    the vertices of a folded face (:func:`folded_vertices`). False for a flat tet and for
+    an immersed mesh (d > 3, no sides).
+
+    >>> import numpy as np, tetlap
+    >>> V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, -1], [0.2, 0.2, 0.5]])
+    >>> tetlap.diagnostics.folded_faces(V, [[0, 1, 2, 3], [0, 2, 1, 4]]).tolist()  # any order
+    [False]
+    >>> tetlap.diagnostics.folded_faces(V, [[0, 1, 2, 3], [0, 1, 2, 5]]).tolist()  # overlap
+    [True]
+    """
+    V, T = _geometry(V, T)
+    interior = _core.faces(T, len(V))[1]
+    if V.shape[1] != 3:
+        return np.zeros(len(interior), dtype=bool)
+    return _folds(V, T, interior, _core.quality(V, T)[0])
+
+
+def _folded_tets(T, interior, folded, volume) -> np.ndarray:
+    """:func:`folded_tets` from the interior face pairs and their fold flags: the tets on
+    the smaller side (fewer tets, then less volume; both on a tie) of the folds of each
+    face-connected part. The sides are a two-colouring of the tets in which neighbours
+    across a folded face differ and across any other face agree: the components of the
+    double cover (tet, side) whose edges keep or swap the side. A part without such a
+    colouring (a fold that closes on itself) names each tet with a folded face."""
+    from scipy.sparse import coo_array
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(T)
+    if not folded.any():
+        return np.zeros(m, dtype=bool)
+    s, t = interior[:, 0], interior[:, 2]
+    live = (volume[s] != 0) & (volume[t] != 0)
+    s, t, swap = s[live], t[live], folded[live].astype(np.int64)
+    rows = np.concatenate([s, s + m])
+    cols = np.concatenate([t + m * swap, t + m * (1 - swap)])
+    graph = coo_array((np.ones(len(rows)), (rows, cols)), shape=(2 * m, 2 * m))
+    _, label = connected_components(graph, directed=False)
+    mine, mirror = label[:m], label[m:]
+    part = np.minimum(mine, mirror)                 # one id per face-connected part
+    side = (mine != part).astype(np.int64)          # 0 or 1 within it
+    count = np.zeros((2 * m, 2))
+    size = np.zeros((2 * m, 2))
+    np.add.at(count, (part, side), 1)
+    np.add.at(size, (part, side), np.abs(volume))
+    (c0, c1), (v0, v1) = count.T, size.T            # fewer tets, then less volume
+    smaller = np.select([c0 < c1, c1 < c0, v0 < v1, v1 < v0], [0, 1, 0, 1], -1)
+    named = (smaller[part] == side) | (smaller[part] == -1)
+    named &= count[part].min(axis=1) > 0            # a part without folds names nothing
+    closed = mine == mirror                         # no two-colouring
+    if closed.any():
+        touched = np.zeros(m, dtype=bool)
+        touched[np.concatenate([s[swap == 1], t[swap == 1]])] = True
+        named = np.where(closed, touched, named)
+    return named
+
+
+@_arrays.takes_mesh_object
+def folded_tets(V, T=None) -> np.ndarray:
+    """Boolean (m,): the tets folded against their neighbours. Across an interior face of
+    an unfolded mesh the two tets lie on opposite sides; where they lie on the same side
+    (:func:`folded_faces`) one of them is inverted relative to the other. In each
+    face-connected part of the mesh the tets split into two sides, neighbours across a
+    folded face on different sides; the folded tets are those of the smaller side (fewer
+    tets, then less volume; both sides on an exact tie). A tet whose vertex order alone
+    is reversed is not folded: only the geometry counts. All False for an immersed mesh
+    (d > 3).
+
+    >>> import numpy as np, tetlap
+    >>> V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.2, 0.2, 0.5]])
+    >>> tetlap.diagnostics.folded_tets(V, [[0, 1, 2, 3], [0, 1, 2, 4]]).tolist()
+    [False, True]
+    >>> V, T = tetlap.meshes.cube(2)
+    >>> V[13] = [0.5, 0.5, 1.2]       # the centre pulled out through the top
+    >>> np.flatnonzero(tetlap.diagnostics.folded_tets(V, T)).tolist()
+    [1, 11, 17, 29, 39, 47]
+    """
+    V, T = _geometry(V, T)
+    interior = _core.faces(T, len(V))[1]
+    if V.shape[1] != 3:
+        return np.zeros(len(T), dtype=bool)
+    volume = _core.quality(V, T)[0]
+    return _folded_tets(T, interior, _folds(V, T, interior, volume), volume)
+
+
+@_arrays.takes_mesh_object
+def folded_vertices(V, T=None) -> np.ndarray:
+    """Boolean (n,): the vertices of folded faces (:func:`folded_faces`), where the mesh
+    folds over itself. At such a vertex the tets around it do not tile a neighbourhood,
+    so neither Laplacian is linearly precise there, whatever the tets' vertex order:
+    ``L x`` misses by about the folded tets' share of the vertex's row (``tetlap.check``
+    fails at the interior ones, unless the folded tets are so small that this stays
+    within its tolerance).
+
+    >>> import numpy as np, tetlap
+    >>> V, T = tetlap.meshes.cube(2)
+    >>> V[13] = [0.5, 0.5, 1.2]       # the centre pulled out through the top
+    >>> np.flatnonzero(tetlap.diagnostics.folded_vertices(V, T)).tolist()
+    [1, 4, 10, 13, 14, 17, 23, 26]
+    """
+    V, T = _geometry(V, T)
+    interior = _core.faces(T, len(V))[1]
+    mask = np.zeros(len(V), dtype=bool)
+    if V.shape[1] == 3:
+        mask[_fold_vertices(T, interior, _folds(V, T, interior, _core.quality(V, T)[0]))] = True
+    return mask
+
+
+def _fold_vertices(T, interior, folds) -> np.ndarray:
+    """The vertices of the folded faces, ascending (the core's ``interior`` pairs and their
+    fold flags)."""
+    return np.unique(T[interior[folds, 0][:, None], _FACES[interior[folds, 1]]])
+
+
 def face_normals(V, F) -> np.ndarray:
     """Area vectors of triangles ``F`` (k, 3) over ``V`` (n, 3): ``(x1 - x0) x (x2 - x0) /
     2``, (k, 3) float64 (length = area, direction by the right-hand rule)."""
@@ -304,8 +446,10 @@ def summary(V, T=None, rtol: float = DELAUNAY_RTOL) -> dict:
     a JSON-ready dict: vertices (on the boundary, unreferenced), tets (positive, negative,
     degenerate, duplicate), faces (boundary, interior, non-manifold), the fraction of
     non-Delaunay interior faces and tets, the dihedral range in degrees, the fraction of
-    well-centred tets and the mesh volume. Geometric entries that need R^3 are None for an
-    immersed mesh.
+    well-centred tets, the mesh volume, and the folds (:func:`folded_faces`,
+    :func:`folded_tets`, :func:`folded_vertices`: counts, and the first
+    :data:`LISTED` tets and vertices by index). Geometric entries that need R^3 are None
+    (the lists empty) for an immersed mesh.
 
     Example
     -------
@@ -346,8 +490,19 @@ def _summary(V, T, rtol: float = DELAUNAY_RTOL) -> tuple[dict, np.ndarray]:
         "non_delaunay_face_fraction": None,
         "non_delaunay_tet_fraction": None,
         "n_non_delaunay_faces": None,
+        "n_folded_faces": None,
+        "n_folded_tets": None,
+        "folded_tets": [],
+        "n_folded_vertices": None,
+        "folded_vertices": [],
     }
     if in_r3:
+        folds = _folds(V, T, interior, volume)
+        tets = np.flatnonzero(_folded_tets(T, interior, folds, volume))
+        vertices = _fold_vertices(T, interior, folds)
+        result.update(n_folded_faces=int(folds.sum()), n_folded_tets=len(tets),
+                      folded_tets=tets[:LISTED].tolist(), n_folded_vertices=len(vertices),
+                      folded_vertices=vertices[:LISTED].tolist())
         flags = _core.non_delaunay(V, T, interior, float(rtol))
         bad = np.zeros(len(T), dtype=bool)
         bad[interior[flags][:, [0, 2]].ravel()] = True

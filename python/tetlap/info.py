@@ -21,7 +21,7 @@ Example
 >>> import tetlap
 >>> r = tetlap.info.report(*tetlap.meshes.cube(3))
 >>> r["schema_version"], r["mesh"]["n_tets"], r["primal"]["nsd"], r["dual"]["n_negative_interior"]
-(3, 162, True, 0)
+(4, 162, True, 0)
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from . import _arrays, _extras, _options, assembly, diagnostics
 from ._float_range import check_float_range
 from ._progress import Stages
 from .errors import ShapeError, TetlapError
-from .analysis import NEGATIVE_TOL, _check, check
+from .analysis import NEGATIVE_TOL, _check, check, lumped_masses, negative_weights
 from .regular import RegularWeights, regular_weights
 
 __all__ = ["report", "regular_summary", "plot", "plot_names", "PAIRS", "SCHEMA_VERSION",
@@ -44,8 +44,11 @@ __all__ = ["report", "regular_summary", "plot", "plot_names", "PAIRS", "SCHEMA_V
 #: 1: the counts at the top level, ``negative_weight_fraction_interior``; 2: the counts
 #: under ``"mesh"``, ``negative_fraction_interior``, ``schema_version`` itself; 3:
 #: ``nsd_min_eigenvalue`` renamed ``nsd_min_eigenvalue_upper_bound`` (a witness's
-#: Rayleigh quotient is an upper bound, not the eigenvalue), ``regular.guarantees``.
-SCHEMA_VERSION = 3
+#: Rayleigh quotient is an upper bound, not the eigenvalue), ``regular.guarantees``; 4:
+#: the folds under ``"mesh"`` (``n_folded_faces``, ``n_folded_tets``, ``folded_tets``,
+#: ``n_folded_vertices``, ``folded_vertices``), ``linear_precision_residual`` measured in
+#: a frame centred on the mesh.
+SCHEMA_VERSION = 4
 
 #: The operators of the report: (Laplacian kind, mass kind).
 PAIRS = (("primal", "barycentric"), ("dual", "circumcentric"))
@@ -329,8 +332,11 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     ``name``, from a file name that is not UTF-8, escaped). Weights and masses are binned
     on symmetric log scales (:func:`spread_bins`), so that slivers' huge values do not
     collapse the rest into one bar; the linear bin around 0 is shaded, with 0 and its
-    bounds ``-t``, ``t`` labelled (:func:`spread_ticks`; ``t`` in the axis label). Needs matplotlib (``pip install
-    ".[experiments]"``), checked first.
+    bounds ``-t``, ``t`` labelled (:func:`spread_ticks`; ``t`` in the axis label). The
+    titles count as the report does: weights negative by :data:`NEGATIVE_TOL`
+    (:func:`tetlap.analysis.negative_weights`), masses over the vertices in tets
+    (:func:`tetlap.analysis.lumped_masses`, also what the mass histograms show). Needs
+    matplotlib (``pip install ".[experiments]"``), checked first.
 
     Example
     -------
@@ -385,10 +391,14 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
     ax.set_title(f"{title}: dihedral angles of its {len(T)} tets")
     save(fig, "dihedral_angles")
 
+    # the counts of the titles are those of the table, by its rules: a weight is negative
+    # by NEGATIVE_TOL, a mass is counted over the vertices in tets
+    edges = diagnostics.mesh_edges(T)
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     for ax, kind in zip(axes, ("primal", "dual")):
-        _, w = assembly.edge_weights(V, T, kind, degenerate="skip")
-        negative = (w < 0).mean() if len(w) else 0.0
+        L = assembly.laplacian(V, T, kind, degenerate="skip")
+        w = np.asarray(L[edges[:, 0], edges[:, 1]], dtype=np.float64).ravel()
+        negative = negative_weights(L, V, T)[0] / len(w) if len(w) else 0.0
         spread(ax, w, "tab:blue" if kind == "primal" else "tab:orange", "edge weight w_ij")
         ax.set_ylabel("edges")
         ax.set_title(f"{kind} Laplacian: {100 * negative:.2f}% of the weights negative")
@@ -397,9 +407,9 @@ def plot(V, T=None, folder=".", name: str = "mesh") -> list:
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     for ax, kind in zip(axes, ("barycentric", "circumcentric")):
-        m = assembly.mass(V, T, kind, degenerate="skip").diagonal()
+        m = lumped_masses(assembly.mass(V, T, kind, degenerate="skip"), T, len(V))
         spread(ax, m, None, "vertex mass")
-        ax.set_ylabel("vertices")
+        ax.set_ylabel("vertices in tets")
         ax.set_title(f"{kind} mass: {int((m <= 0).sum())} of {len(m)} vertices with mass <= 0")
     fig.suptitle(f"{title}: lumped masses")
     save(fig, "masses")

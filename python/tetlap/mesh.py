@@ -8,6 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
+from ._options import weights_used
 from .assembly import _options
 from .errors import ShapeError
 
@@ -40,7 +41,10 @@ class Mesh:
     T : (m, 4) or (m, 3) array-like of integers, optional
         Tets or triangles, any orientation; leave it out to pass a mesh object as ``V``.
     boundary, weights, degenerate, threads
-        As for :func:`tetlap.laplacian`; they apply to every operator of this mesh.
+        As for :func:`tetlap.laplacian`; they apply to every operator of this mesh. With
+        ``weights``, a request that does not depend on them (the primal Laplacian, a mass
+        other than the circumcentric, alone) is refused with :class:`tetlap.OptionError`,
+        as :func:`tetlap.laplacian` refuses ``weights=`` with the primal.
 
     Notes
     -----
@@ -71,6 +75,7 @@ class Mesh:
         w = _arrays.vertex_weights(weights, V.shape[0])
         self._core = _core.Mesh(V, T, weights=w,
                                 options=_options(boundary, degenerate, threads))
+        self._weighted = w is not None
         self._n, self._dim = V.shape
         indices, indptr = self._core.pattern()
         pattern = _sparse.csr((np.empty(len(indices)), indices, indptr), self._n)
@@ -97,19 +102,33 @@ class Mesh:
         return _sparse.csr((data, self._indices, self._indptr), self._n)
 
     def laplacian(self, kind="primal") -> sp.csr_array:
-        """The (n, n) Laplacian of ``kind`` (cached; see :func:`tetlap.laplacian`)."""
+        """The (n, n) Laplacian of ``kind`` (cached; see :func:`tetlap.laplacian`). A Mesh
+        with vertex weights refuses the primal (:class:`tetlap.OptionError`): the weights
+        belong to the dual, and the primal would ignore them."""
+        weights_used(self._weighted, (kind,), "weights (of this Mesh)")
+        return self._laplacian(kind)
+
+    def _laplacian(self, kind) -> sp.csr_array:
         return self._matrix(self._core.laplacian(kind))
 
     def mass(self, kind="barycentric") -> sp.csr_array:
-        """The (n, n) mass matrix of ``kind`` (cached; see :func:`tetlap.mass`)."""
+        """The (n, n) mass matrix of ``kind`` (cached; see :func:`tetlap.mass`). A Mesh
+        with vertex weights refuses the kinds that do not use them (all but
+        ``"circumcentric"``), as :meth:`laplacian` refuses the primal."""
+        weights_used(self._weighted, (kind,), "weights (of this Mesh)")
+        return self._mass(kind)
+
+    def _mass(self, kind) -> sp.csr_array:
         values = self._core.mass(kind)
         if kind == "fem":
             return self._matrix(values)
         return sp.diags_array(values, format="csr")
 
     def operators(self, laplacian="primal", mass="barycentric"):
-        """``(L, M)``, both cached."""
-        return self.laplacian(laplacian), self.mass(mass)
+        """``(L, M)``, both cached. With vertex weights, one of them must use them (the
+        dual Laplacian or the circumcentric mass), as for :func:`tetlap.operators`."""
+        weights_used(self._weighted, (laplacian, mass), "weights (of this Mesh)")
+        return self._laplacian(laplacian), self._mass(mass)
 
     def update(self, V) -> UpdateInfo:
         """Move the vertices to ``V`` ((n, d), same shape) and refresh the cached operators.

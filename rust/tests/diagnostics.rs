@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::grid;
+use common::{grid, tri_grid};
 use tetlap::*;
 
 const CORNER: [f64; 12] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
@@ -134,6 +134,62 @@ fn check_operator_of_the_corner_tet() {
     let two = TetView::new(&five, 3, &[[0, 1, 2, 3]]).unwrap();
     let far = Csr { n: 5, indptr: vec![0, 2, 2, 2, 2, 4], indices: vec![0, 4, 0, 4], data: vec![-1.0, 1.0, 1.0, -1.0] };
     assert!(!check_operator(&far, &two, &[true; 5], 1e-12, &opts()).unwrap().local);
+}
+
+/// The boundary flags of a mesh: the vertices of faces of one cell.
+fn on_boundary<S: Simplex>(cells: &[S::Cell], n: usize) -> Vec<bool> {
+    let f = faces::<S>(cells, n, &opts()).unwrap();
+    let mut b = vec![false; n];
+    for &[cell, corner] in &f.boundary {
+        for (k, &v) in cells[cell as usize].as_ref().iter().enumerate() {
+            b[v as usize] |= k != corner as usize;
+        }
+    }
+    b
+}
+
+#[test]
+fn linear_precision_does_not_depend_on_where_the_mesh_lies() {
+    // offsets up to 1e12: the operator is that of the mesh translated back, and so is the
+    // residual (measured in a frame centred on the mesh); a broken operator still fails
+    let (points, cells) = grid(4, 0.2, 1);
+    let (tpoints, tcells) = tri_grid(6, 0.2, 1);
+    let b = on_boundary::<Tet>(&cells, points.len() / 3);
+    let tb = on_boundary::<Tri>(&tcells, tpoints.len() / 2);
+    for offset in [0.0, 1e3, 1e6, 1e9, 1e12] {
+        let far: Vec<f64> = points.iter().map(|x| x + offset).collect();
+        let back: Vec<f64> = far.iter().map(|x| x - offset).collect(); // exact
+        let tfar: Vec<f64> = tpoints.iter().map(|x| x + offset).collect();
+        for kind in [LaplacianKind::Primal, LaplacianKind::Dual] {
+            let mesh = TetView::new(&far, 3, &cells).unwrap();
+            let l = laplacian(&mesh, kind, &opts()).unwrap();
+            let home = laplacian(&TetView::new(&back, 3, &cells).unwrap(), kind, &opts()).unwrap();
+            assert_eq!(l.data, home.data, "{offset}: the operator is the translated-back one's");
+            let lp = check_operator(&l, &mesh, &b, 1e-12, &opts()).unwrap().linear_precision.unwrap();
+            assert!(lp < 1e-13, "{offset} {kind:?}: {lp}");
+            let mut broken = l.clone();
+            let (i, k) = (62, l.indptr[62] + 1); // vertex (2, 2, 2), interior: its first off-diagonal
+            let j = l.indices[k] as usize;
+            broken.data[k] += 0.01;
+            let kk = l.indptr[j] + l.indices[l.indptr[j]..l.indptr[j + 1]].binary_search(&(i as u32)).unwrap();
+            broken.data[kk] += 0.01;
+            let dd = |r: usize| l.indptr[r] + l.indices[l.indptr[r]..l.indptr[r + 1]].binary_search(&(r as u32)).unwrap();
+            broken.data[dd(i)] -= 0.01;
+            broken.data[dd(j)] -= 0.01; // symmetric, zero row sums: only precision is lost
+            let lp = check_operator(&broken, &mesh, &b, 1e-12, &opts()).unwrap().linear_precision.unwrap();
+            assert!(lp > 1e-4, "{offset} {kind:?}: a broken operator passes ({lp})");
+        }
+        let tri = TriView::new(&tfar, 2, &tcells).unwrap();
+        let l = laplacian(&tri, LaplacianKind::Primal, &opts()).unwrap();
+        let lp = check_operator(&l, &tri, &tb, 1e-12, &opts()).unwrap().linear_precision.unwrap();
+        assert!(lp < 1e-13, "{offset} triangles: {lp}");
+    }
+    // triangles immersed in R^3 (a curved surface in general) are not measured
+    let (tpoints, tcells) = tri_grid(2, 0.0, 0);
+    let lifted: Vec<f64> = tpoints.chunks(2).flat_map(|p| [p[0], p[1], 0.0]).collect();
+    let tri = TriView::new(&lifted, 3, &tcells).unwrap();
+    let l = laplacian(&tri, LaplacianKind::Primal, &opts()).unwrap();
+    assert_eq!(check_operator(&l, &tri, &on_boundary::<Tri>(&tcells, 9), 1e-12, &opts()).unwrap().linear_precision, None);
 }
 
 /// A symmetric CSR from dense rows.

@@ -104,13 +104,17 @@ def info_report(result: dict, source: str) -> str:
     lines.append(f"dihedral angles {angles}; "
                  f"well-centered tets {100 * m['well_centered_tet_fraction']:.2f}%; "
                  f"volume {m['mesh_volume']:.10g}")
+    if m["n_folded_tets"]:
+        lines.append(_folded_line(m))
     p, d = result["primal"], result["dual"]
     rows = [
         ("finite", _cell(p["finite"]), _cell(d["finite"])),
         ("symmetric", _cell(p["symmetric"]), _cell(d["symmetric"])),
-        ("max |row sum|", _cell(p["max_row_sum"]), _cell(d["max_row_sum"])),
-        ("linear precision residual", _cell(p["linear_precision_residual"]),
-         _cell(d["linear_precision_residual"])),
+        ("zero row sums (max |row sum|)", _verdict(p["row_sums_ok"], p["max_row_sum"]),
+         _verdict(d["row_sums_ok"], d["max_row_sum"])),
+        ("linear precision (residual)", _verdict(p["linear_precision_ok"],
+                                                 p["linear_precision_residual"]),
+         _verdict(d["linear_precision_ok"], d["linear_precision_residual"])),
         ("negative semidefinite", _cell(p["nsd"]), _cell(d["nsd"])),
         ("min weight", _cell(p["min_weight"]), _cell(d["min_weight"])),
         ("negative weights", _share(p["n_negative"], p["n_edges"]),
@@ -130,13 +134,77 @@ def info_report(result: dict, source: str) -> str:
     lines += [_skipped_line(kind, r) for kind, r in (("primal", p), ("dual", d)) if r["n_skipped_tets"]]
     if result.get("regular") is not None:
         lines += ["", regular_section(result["regular"])]
+    advice = next_steps(result)
+    if advice:
+        lines += ["", "what to do:"] + [f"- {line}" for line in advice]
     return "\n".join(lines)
+
+
+def _verdict(ok, value) -> str:
+    """A row's verdict and its number (``NO 3.081e-05``), or ``n/a``."""
+    return "n/a" if ok is None else f"{_cell(ok)} {_cell(value)}"
+
+
+def _listed(indices: list, count: int) -> str:
+    return ", ".join(map(str, indices)) + (", ..." if count > len(indices) else "")
+
+
+def _folded_line(m: dict) -> str:
+    """The folded tets of ``tetlap info`` and the vertices they spoil."""
+    return (f"folded: {m['n_folded_tets']} tets overlap a neighbour (both on one side of "
+            f"their shared face; a reversed vertex order alone is no fold): "
+            f"{_listed(m['folded_tets'], m['n_folded_tets'])}; every Laplacian loses linear "
+            f"precision, by the folded tets' share, at the {m['n_folded_vertices']} "
+            f"vertices of the {m['n_folded_faces']} folded faces: "
+            f"{_listed(m['folded_vertices'], m['n_folded_vertices'])}")
+
+
+def next_steps(result: dict) -> list[str]:
+    """What ``tetlap info`` advises for what it found, each line only where the step fixes
+    it: untangle folded tets; the primal where the dual is indefinite; the mixed mass where
+    circumcentric masses are not positive; the weights of
+    :func:`tetlap.regular_weights` where they make the dual's interior weights
+    non-negative; the dual where the primal's are negative and the dual's are not."""
+    m, p, d, r = result["mesh"], result["primal"], result["dual"], result.get("regular")
+    advice = []
+    if m["n_folded_tets"]:
+        advice.append(f"untangle the {m['n_folded_tets']} folded tets (move their vertices "
+                      "until each lies on its own side of its faces): no operator or option "
+                      "restores linear precision at their vertices")
+    if d["nsd"] is False and p["nsd"]:
+        advice.append('the dual is indefinite here: for solves, eigenvalues, energies or heat, '
+                      'use the primal, negative semidefinite on every mesh '
+                      '(tetlap.laplacian(V, T, "primal"))')
+    if d["mass_nonpositive"]:
+        k = d["mass_nonpositive"]
+        advice.append(f"{k} circumcentric {'mass is' if k == 1 else 'masses are'} <= 0 (no "
+                      'lumped mass, no inverse there): mass="mixed" moves the centres that '
+                      "fall outside their tets inside and is positive on every mesh "
+                      '(tetlap.mass(V, T, "mixed"); "barycentric" is positive too)')
+    negative = d["n_negative_interior"]
+    if negative and r is None:
+        advice.append(f"the dual has {negative} negative interior weights: run without "
+                      "--no-regular to search for vertex weights that remove them")
+    elif negative and r["status"] == "regular" and (
+            (r.get("guarantees") or {}).get("nonnegative_interior") == "yes"):
+        g = r["guarantees"]
+        also = " and ".join(what for what, key in (
+            ("is negative semidefinite", "semidefinite"),
+            ("has positive control volumes", "positive_masses")) if g.get(key) == "yes")
+        advice.append(f"vertex weights remove the dual's {negative} negative interior weights "
+                      "(a maximum principle)" + (f", and the weighted dual {also}" if also
+                                                 else "") + ": w = tetlap.regular_weights(V, "
+                      'T).weights, then tetlap.laplacian(V, T, "dual", weights=w)')
+    if p["n_negative_interior"] and not negative and d["nsd"] is not False:
+        advice.append("for non-negative interior weights (a maximum principle) use the dual, "
+                      'which has them here (tetlap.laplacian(V, T, "dual"))')
+    return advice
 
 
 def _skipped_line(kind: str, r: dict) -> str:
     """Which tets an operator of ``tetlap info`` left out, and why."""
     n, far = r["n_skipped_tets"], r["n_skipped_out_of_range"]
-    named = ", ".join(map(str, r["skipped_tets"])) + (", ..." if n > len(r["skipped_tets"]) else "")
+    named = _listed(r["skipped_tets"], n)
     return (f"skipped ({kind}): {n} tets ({n - far} flat, {far} with values beyond the float64 "
             f"range): {named}; the properties above are those of the operator without them")
 
@@ -152,18 +220,22 @@ def regular_section(r: dict) -> str:
     g = r.get("guarantees") or {}
     safe = ("; the weighted dual: interior weights >= 0 {nonnegative_interior}, control "
             "volumes > 0 {positive_masses}, semidefinite {semidefinite}").format(**g) if g else ""
+    weighted = r["n_weighted_vertices"]
+    found = (f"with the weights found (on {weighted} vertices) {r['margin']:+.3e}" if weighted
+             else "no weights needed" if r["margin_plain"] > 0
+             else "the search found no better weights (all zero)")
     lines = [f"regular (weighted Delaunay): {verdict}{safe}",
-             f"margin {r['margin']:+.3e} with the "
-             f"weights found ({r['n_weighted_vertices']} non-zero), {r['margin_plain']:+.3e} "
-             f"without; {r['seconds']:.2f} s",
+             f"worst interior face (its dual edge's length over the face's size, > 0 at every "
+             f"face: regular): {r['margin_plain']:+.3e} without weights; {found}",
              f"negative interior weights: dual {n['dual']}, weighted dual {n['weighted_dual']}, "
              f"primal {n['primal']}"]
     if r["status"] == "not regular":
-        lines.append(f"certificate: {r['certificate_faces']} faces that no weights make all "
-                     "locally regular")
+        lines.append(f"proof: {r['certificate_faces']} interior faces whose conditions no "
+                     "vertex weights meet together")
     elif r["status"] == "undecided":
         lines.append(f"undecided: {r['notes'][0] if r['notes'] else 'budget exhausted'} "
                      "(raise --regular-time)")
+    lines.append(f"the search took {r['seconds']:.2f} s (--no-regular skips it)")
     return "\n".join(lines)
 
 

@@ -34,8 +34,14 @@ pub struct OperatorCheck {
     pub n_edges_inner: usize,
     /// Negative weights among those.
     pub n_negative_inner: usize,
-    /// `max_i |(L X)_i|` over interior vertices, relative to `max|L| * diameter` (of the
-    /// vertices in cells), for a mesh in R^3 with interior vertices (`None` otherwise).
+    /// `max_i |(L (X - c))_i|` over interior vertices, relative to `max|L| * diameter`: `X`
+    /// the positions in a frame centred on the mesh (`c` the centre of the bounding box of
+    /// the vertices in cells, `diameter` its diagonal), for a mesh as wide as its cells
+    /// (tets in R^3, triangles in R^2) with interior vertices (`None` otherwise). The
+    /// centred frame makes the number independent of where the mesh lies: in the frame of
+    /// the origin it would add `c` times each row's sum, rounding of the row-sum check's
+    /// own business, which at an offset of `1e6` exceeds the tolerance of a perfect
+    /// operator.
     pub linear_precision: Option<f64>,
 }
 
@@ -79,7 +85,9 @@ pub fn check_operator<'a, S: Simplex>(
             cols.binary_search(&j).map_or(0.0, |k| vals[k])
         };
         let interior = |i: usize| !boundary[i] && !rows.corners.of(layout.rank[i] as usize).is_empty();
-        let geometric = mesh.dim() == 3;
+        let d = mesh.dim();
+        let geometric = d == S::MIN_DIM;
+        let (centre, diameter) = bounding_box(mesh);
         let mut checks: Vec<RowCheck> = (0..n).map(|_| RowCheck::default()).collect();
         for_each_row(&mut checks, opts, |v, out| {
             let i = layout.vertex_of[v] as usize;
@@ -101,11 +109,11 @@ pub fn check_operator<'a, S: Simplex>(
                 }
             });
             if geometric && interior(i) {
-                let x = |j: usize| &mesh.points()[3 * j..3 * j + 3];
+                let x = |j: usize| &mesh.points()[d * j..d * j + d];
                 let mut r = [0.0; 3];
                 for (&j, &a) in cols.iter().zip(vals) {
-                    for (rc, xc) in r.iter_mut().zip(x(j as usize)) {
-                        *rc += a * xc;
+                    for ((rc, xc), cc) in r.iter_mut().zip(x(j as usize)).zip(&centre) {
+                        *rc += a * (xc - cc);
                     }
                 }
                 out.residual = Some(r.iter().fold(0.0, |m, c| m.max(c.abs())));
@@ -138,7 +146,6 @@ pub fn check_operator<'a, S: Simplex>(
             }
         }
         if let Some(r) = residual {
-            let diameter = bounding_box_diagonal(mesh);
             let scale = if total.scale > 0.0 { total.scale } else { 1.0 };
             total.linear_precision = Some(r / (scale * diameter));
         }
@@ -146,22 +153,28 @@ pub fn check_operator<'a, S: Simplex>(
     })
 }
 
-/// The length of the diagonal of the bounding box of the vertices of `mesh`'s cells (a
-/// vertex in no cell takes no part), computed without overflow.
-fn bounding_box_diagonal<S: Simplex>(mesh: &MeshView<S>) -> f64 {
+/// The centre and the length of the diagonal of the bounding box of the vertices of
+/// `mesh`'s cells (a vertex in no cell takes no part), computed without overflow; the
+/// centre has `mesh.dim()` coordinates (at most 3 are read).
+fn bounding_box<S: Simplex>(mesh: &MeshView<S>) -> ([f64; 3], f64) {
+    let d = mesh.dim().min(3);
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     let points = mesh.points();
     for &v in mesh.cells().iter().flat_map(|c| c.as_ref()) {
-        let p = &points[3 * v as usize..3 * v as usize + 3];
-        for a in 0..3 {
+        let p = &points[mesh.dim() * v as usize..][..d];
+        for a in 0..d {
             lo[a] = lo[a].min(p[a]);
             hi[a] = hi[a].max(p[a]);
         }
     }
-    let extent = |a: usize| (hi[a] - lo[a]).max(0.0);
-    let largest = (0..3).map(extent).fold(0.0, f64::max);
-    if largest == 0.0 || !largest.is_finite() {
-        return largest;
+    let mut centre = [0.0; 3];
+    for a in 0..d {
+        centre[a] = lo[a] / 2.0 + hi[a] / 2.0;
     }
-    largest * (0..3).map(|a| (extent(a) / largest).powi(2)).sum::<f64>().sqrt()
+    let extent = |a: usize| (hi[a] - lo[a]).max(0.0);
+    let largest = (0..d).map(extent).fold(0.0, f64::max);
+    if largest == 0.0 || !largest.is_finite() {
+        return (centre, largest);
+    }
+    (centre, largest * (0..d).map(|a| (extent(a) / largest).powi(2)).sum::<f64>().sqrt())
 }
