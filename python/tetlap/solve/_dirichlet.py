@@ -18,13 +18,17 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
     Parameters
     ----------
     L : (n, n) SciPy sparse array or matrix
-        A Laplacian (any format; not modified).
-    fixed : (n,) bool mask or integer array of vertex indices
+        A tetlap Laplacian, ``L[i, i] = -sum_j w_ij`` (any format; not modified). The
+        stiffness sign ``-L`` (LaPy, scikit-fem) is refused: a non-negative diagonal is
+        an :class:`tetlap.OptionError`.
+    fixed : (n,) bool mask or 1-D integer array of distinct vertex indices
         The constrained vertices: at least one in every connected component of the mesh
         that has free vertices (else :class:`tetlap.SolveError` names the component).
     values : float, (n,) or (n_fixed,) array-like
-        The values on the fixed vertices (entries of an (n,) array at free vertices are
-        ignored).
+        The values on the fixed vertices: one per fixed vertex, ``f[fixed[i]] =
+        values[i]`` in the order of ``fixed`` (ascending vertex order for a mask); or one
+        per vertex (entries at free vertices are ignored). When every vertex is fixed by
+        indices in another order, the two readings differ and such values are refused.
     rhs : (n,) array-like, optional
         The right-hand side (default 0: the Laplace equation, i.e. minimising the
         Dirichlet energy ``-f^T L f`` of Eq. 28 under the constraints).
@@ -50,7 +54,8 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
     Returns
     -------
     f : (n,) float64 array
-        Equal to ``values`` on fixed vertices; unreferenced free vertices get 0.
+        Equal to ``values`` on fixed vertices; free vertices in no element (no edge in
+        ``L``) get 0.
     info : SolveInfo, with ``return_info=True``.
 
     Raises
@@ -71,15 +76,18 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
     >>> bool(np.allclose(f, V[:, 0])), info.solver, info.residual < 1e-12
     (True, 'cholesky', True)
     """
-    L = _arrays.matrix(L)
+    L = _arrays.laplacian(L)
     n = L.shape[0]
-    fixed = _checks.mask(fixed, n)
-    f = _checks.values(values, fixed)
+    order = _checks.fixed(fixed, n)
+    f = _checks.values(values, order, n)
+    fixed = np.zeros(n, dtype=bool)
+    fixed[order] = True
     b = np.zeros(n) if rhs is None else _arrays.vector(rhs, n, "rhs")
     if method not in ("eliminate", "replace"):
         raise OptionError(f'method must be "eliminate" or "replace", got {method!r}')
     _checks.solver(solver)
     _checks.flag(progress, "progress")
+    _checks.flag(return_info, "return_info", unset=False)
     if method == "replace" and solver not in ("auto", "lu"):
         raise OptionError('method="replace" builds a non-symmetric system: use solver="auto" '
                           'or "lu" (or method="eliminate")')
@@ -94,11 +102,7 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
         v = int(np.argmax(orphan))
         raise SolveError(f"the component of vertex {v} has no fixed vertex: the Dirichlet "
                          "problem is singular there (fix a vertex of it, or use neumann)")
-    lone = ~fixed & ~referenced
-    if (b[lone] != 0).any():
-        v = int(np.flatnonzero(lone & (b != 0))[0])
-        raise SolveError(f"vertex {v} belongs to no element but has rhs {b[v]:g} != 0")
-    f[lone] = 0.0
+    _checks.off_the_mesh(np.where(fixed, 0.0, b), referenced, "rhs")
     e = _checks.exponent(f, b)  # 1e308 values: solved scaled by 2^-e (exact), then back
     f, b = np.ldexp(f, -e), np.ldexp(b, -e)
     if free.any():

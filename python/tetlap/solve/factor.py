@@ -152,10 +152,12 @@ class Factor:
         else:
             # Pr A Pc = L U: pivot k sits in row argsort(perm_r)[k], column argsort(perm_c)[k]
             rows, cols = np.argsort(self._lu.perm_r), np.argsort(self._lu.perm_c)
-            d = np.abs(self._A.diagonal())
-            scale = np.sqrt(d[rows] * d[cols])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ratios = np.where(scale > 0, np.abs(self._lu.U.diagonal()) / scale, np.inf)
+            root = np.sqrt(np.abs(self._A.diagonal()))
+            # |u_kk| / sqrt(|a_ii a_jj|) as two divisions: no product overflows (a
+            # diagonal of 1e155) or underflows
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
+                ratios = np.abs(self._lu.U.diagonal()) / root[rows] / root[cols]
+            ratios = np.where((root[rows] > 0) & (root[cols] > 0), ratios, np.inf)
             k = int(np.argmin(ratios)) if len(ratios) else 0
             row, ratio = (int(rows[k]), float(ratios[k])) if len(ratios) else (0, np.inf)
         if ratio > PIVOT_RTOL:
@@ -176,8 +178,13 @@ class Factor:
 
     def refactor(self, A) -> None:
         """Factorizes new values ``A`` (``(n, n)``, non-zeros within the pattern of the
-        factorized matrix), reusing the ordering and the symbolic analysis."""
+        factorized matrix), reusing the ordering and the symbolic analysis; a cholesky
+        factorization takes symmetric values only (:class:`tetlap.OptionError`)."""
         A = _arrays.matrix(A, self.n, "A")
+        if self._core is not None and not _symmetric(A):
+            raise OptionError("refactor: the matrix is not symmetric, and this factorization "
+                              f"is a {self.info.method} of symmetric ones; factorize it anew "
+                              "with solver=\"lu\"")
         if self._core is None:
             self._A, self._norm = A, _checks.row_norm(A)
             self._factor_lu(A)
