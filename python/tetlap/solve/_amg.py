@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .._progress import _interactive
+from . import _checks
 
 #: The relative 2-norm residual ``|b - A x| / |b|`` at which CG stops.
 CG_RTOL = 1e-10
@@ -55,6 +56,12 @@ def solve(A: sp.csr_array, b: np.ndarray, info, progress=None) -> np.ndarray:
     from scipy.sparse.csgraph import reverse_cuthill_mckee
 
     info.solver, info.method, info.ordering = "amg", "cg + smoothed aggregation", "reverse Cuthill-McKee"
+    # A 2^-a and b 2^-c in pyamg's range (exact): x = 2^(c - a) (A 2^-a)^-1 (b 2^-c)
+    a = _checks.band_exponent(_checks.row_norm(A))
+    c = _checks.band_exponent(float(np.abs(b).max(initial=0.0)))
+    if a:
+        A = sp.csr_array((np.ldexp(A.data, -a), A.indices, A.indptr), shape=A.shape)
+    b = np.ldexp(b, -c)
     with one_blas_thread():
         with info.phase("ordering"):
             perm = reverse_cuthill_mckee(A, symmetric_mode=True)
@@ -85,7 +92,8 @@ def solve(A: sp.csr_array, b: np.ndarray, info, progress=None) -> np.ndarray:
                      "iterations: the system is too ill-conditioned for it")
     x = np.empty_like(b)
     x[perm] = xp
-    return x
+    with np.errstate(over="ignore", under="ignore"):
+        return np.ldexp(x, c - a)
 
 
 def _bar(progress):

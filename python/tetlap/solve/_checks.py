@@ -155,6 +155,20 @@ def exponent(*arrays: np.ndarray) -> int:
     return int(np.frexp(largest)[1]) - 1 if largest >= LARGE else 0
 
 
+#: A solver whose set-up multiplies entries together (pyamg's) gets a matrix and a
+#: right-hand side whose largest magnitudes lie outside ``[1 / BAND, BAND]`` scaled by a
+#: power of two (exact): unscaled, it failed from ``2^600`` and below ``2^-600``.
+BAND = 2.0**256
+
+
+def band_exponent(largest: float) -> int:
+    """0 when ``largest`` is 0 or in ``[1 / BAND, BAND]`` (ordinary data, solved as
+    given), else the power of two that brings it into ``[1, 2)``."""
+    if largest == 0 or 1 / BAND <= largest <= BAND:
+        return 0
+    return int(np.frexp(largest)[1]) - 1
+
+
 def unscaled(x: np.ndarray, e: int, what: str) -> np.ndarray:
     """``x 2^e``, or :class:`tetlap.NonFiniteError` when that leaves the float64 range."""
     if e == 0:

@@ -115,11 +115,16 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
             f[free] = _linear.solve(A, -rhs_f, "Dirichlet system", solver=solver, info=info,
                                     progress=progress)
         else:
-            # on the referenced vertices: an unused vertex takes part in no system
+            # on the referenced vertices: an unused vertex takes part in no system. A fixed
+            # vertex's row is 2^p f_i = 2^p values_i, 2^p the power of two of its diagonal
+            # (exact): rows of one size at any scale of L (identity rows beside rows of
+            # 2^100 made the system look singular)
             sub = L[referenced][:, referenced]
             keep = sp.diags_array(free[referenced].astype(np.float64))
-            A = keep @ sub + sp.diags_array((~free[referenced]).astype(np.float64))
-            full = np.where(free, b, f)[referenced]
+            size = np.ldexp(1.0, np.frexp(np.abs(L.diagonal()))[1])[referenced]
+            pinned = np.where(free[referenced], 0.0, size)
+            A = keep @ sub + sp.diags_array(pinned)
+            full = np.where(free, b, np.ldexp(f, np.frexp(np.abs(L.diagonal()))[1]))[referenced]
             f[referenced] = _linear.solve(sp.csr_array(A), full, "Dirichlet system", solver="lu",
                                           info=info, symmetric=False)
     f = _checks.unscaled(f, e, "Dirichlet system")
