@@ -181,15 +181,15 @@ class Factor:
         factorized matrix), reusing the ordering and the symbolic analysis; a cholesky
         factorization takes symmetric values only (:class:`tetlap.OptionError`)."""
         A = _arrays.matrix(A, self.n, "A")
-        if self._core is not None and not _symmetric(A):
-            raise OptionError("refactor: the matrix is not symmetric, and this factorization "
-                              f"is a {self.info.method} of symmetric ones; factorize it anew "
-                              "with solver=\"lu\"")
         if self._core is None:
             self._A, self._norm = A, _checks.row_norm(A)
             self._factor_lu(A)
             return
         data = _within(A, self._A)
+        if not _symmetric(A):
+            raise OptionError("refactor: the matrix is not symmetric, and this factorization "
+                              f"is a {self.info.method} of symmetric ones; factorize it anew "
+                              "with solver=\"lu\"")
         old = self._A
         self._A = sp.csr_array((data, old.indices, old.indptr), shape=old.shape)
         self._norm = _checks.row_norm(self._A)
