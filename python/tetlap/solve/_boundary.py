@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import _arrays, _float_range, diagnostics
-from ..errors import DegenerateElementError, NonFiniteError
+from ..errors import DegenerateElementError, NonFiniteError, ShapeError
 
 
 class Faces(NamedTuple):
@@ -94,6 +94,8 @@ def _geometry(V, T, normal_derivative):
         raise TypeError("normal_derivative is missing: a constant gradient (3,) or a callable")
     V, T = _arrays.mesh(V, T)
     V, T = _arrays.points(V), _arrays.elements(T, 4)
+    if V.shape[1] != 3:
+        raise ShapeError(f"V must have shape (n, 3): boundary normals need 3-space, got {V.shape}")
     _arrays.used_vertices(V, T)     # indices in range, coordinates finite (of any vertex)
     return V, T
 

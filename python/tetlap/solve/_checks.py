@@ -112,7 +112,7 @@ def relative_residual(A, x: np.ndarray, b: np.ndarray, norm: float | None = None
     ``x``, ``b`` of shape (n,) or (n, k) (the largest over the columns). Evaluated in
     binary exponents, so that no product or sum of norms overflows or underflows (a
     matrix scaled by ``2^1000`` or ``2^-1000`` gets the residual of the unscaled one)."""
-    if not len(b):
+    if not b.size:
         return 0.0
     if not np.isfinite(x).all():
         return np.inf
@@ -220,7 +220,7 @@ def condition_bound(A, x: np.ndarray, b: np.ndarray) -> float:
     |S^-1 x|_inf / |S b|_inf``, since ``S^-1 x`` solves ``(S A S) y = S b`` (the largest
     over the columns; 0 for columns with ``b = 0``). Large only when ``x`` is much larger
     than ``b`` in the matrix's own scaling: a direction near the null space."""
-    if not len(b):
+    if not b.size:
         return 0.0
     d = np.abs(A.diagonal())
     s = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)

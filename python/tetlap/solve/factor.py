@@ -28,7 +28,7 @@ import scipy.sparse as sp
 from .. import _arrays, _core, _sparse
 from .._interrupt import interruptible
 from .._progress import Stages
-from ..errors import OptionError, ShapeError, SolveError
+from ..errors import DtypeError, OptionError, ShapeError, SolveError
 from . import _checks
 from .info import SolveInfo
 
@@ -220,11 +220,16 @@ class Factor:
 
     def solve(self, b) -> np.ndarray:
         """``x`` with ``A x = b`` for ``b`` of shape ``(n,)`` or ``(n, k)`` (float64, a new
-        array), each column residual-checked; :class:`tetlap.SolveError` if one fails or
-        the matrix is singular to working precision (:data:`PIVOT_RTOL`)."""
+        array of the shape of ``b``; ``k = 0`` and ``n = 0`` give an empty one), each column
+        residual-checked; :class:`tetlap.SolveError` if one fails or the matrix is singular
+        to working precision (:data:`PIVOT_RTOL`)."""
         arr = _arrays._as_array(b, "b")
         if arr.ndim not in (1, 2) or arr.shape[0] != self.n:
             raise ShapeError(f"b must have shape ({self.n},) or ({self.n}, k), got {arr.shape}")
+        if arr.size == 0:               # n = 0, or no column: nothing to solve
+            if arr.dtype.kind not in "fiub":
+                raise DtypeError(f"b must hold real numbers, got dtype {arr.dtype}")
+            return np.zeros(arr.shape)
         flat = arr.reshape(self.n, -1)
         flat = np.column_stack([_arrays.vector(flat[:, j], self.n, "b") for j in range(flat.shape[1])]) \
             if flat.shape[1] else np.zeros((self.n, 0))
