@@ -73,7 +73,7 @@ def solve(A: sp.csr_array, b: np.ndarray, info, progress=None) -> np.ndarray:
                 postsmoother=("gauss_seidel", {"sweep": "backward"}))
         residuals: list[float] = []
         bar = _bar(progress)
-        callback = (lambda x: bar.update(1)) if bar is not None else None
+        callback = _Progress(bar, residuals) if bar is not None else None
         # recorded, not shown: an indefinite matrix is reported below (pyamg's cg puts an
         # "always" filter of its own first, so an "ignore" filter would not hold)
         with info.phase("solve"), warnings.catch_warnings(record=True):
@@ -96,6 +96,26 @@ def solve(A: sp.csr_array, b: np.ndarray, info, progress=None) -> np.ndarray:
         return np.ldexp(x, c - a)
 
 
+#: The bar's total: the decimal digits CG gains on the relative residual.
+DIGITS = -np.log10(CG_RTOL)
+
+
+class _Progress:
+    """CG's callback that moves ``bar`` to the most digits gained so far on the relative
+    residual, ``log10(|r_0| / |r_k|)`` out of :data:`DIGITS` (full when CG converges;
+    the iteration cap, ``CG_MAXITER``, is no measure of progress: CG stopped at a tenth
+    of it), with the iterations beside it."""
+
+    def __init__(self, bar, residuals: list) -> None:
+        self.bar, self.residuals = bar, residuals
+
+    def __call__(self, x) -> None:
+        first, last = self.residuals[0], self.residuals[-1]
+        gained = DIGITS if last <= 0 else float(np.clip(np.log10(first / last), 0.0, DIGITS))
+        self.bar.set_postfix_str(f"{len(self.residuals) - 1} iterations", refresh=False)
+        self.bar.update(max(gained - self.bar.n, 0.0))
+
+
 def _bar(progress):
     if not (progress if progress is not None else _interactive()):
         return None
@@ -105,4 +125,5 @@ def _bar(progress):
         return None
     import sys
 
-    return tqdm(total=CG_MAXITER, desc="CG", file=sys.stderr, leave=False)
+    return tqdm(total=DIGITS, desc="CG residual digits", file=sys.stderr, leave=False,
+                bar_format="{desc}: {bar} {n:.1f}/{total:.0f} [{postfix}]")
