@@ -39,12 +39,13 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
         the same solution (to rounding).
     solver : {"auto", "amg", "cholesky", "lu"}, default "auto"
         ``"amg"``: CG preconditioned by smoothed aggregation (pyamg), for one solve of a
-        large system (the fastest from about 10k unknowns: 4-6 assemblies' time on 1M
-        tets); ``"cholesky"``: the core's sparse ``LL^T`` (``LDL^T`` for an indefinite
-        ``-L_FF``), refined in extended precision, fastest below 10k unknowns; ``"lu"``: SciPy's
-        SuperLU, the old path (minutes at 1M tets). ``"auto"``: amg from 10k unknowns, else
-        cholesky, falling back to cholesky then lu when CG finds the system indefinite or
-        its answer fails the residual check (``info.fallbacks`` says why).
+        large system (the fastest from about 10k unknowns); ``"cholesky"``: the core's
+        sparse ``LL^T`` (``LDL^T`` for an indefinite ``-L_FF``), refined in extended
+        precision, fastest below 10k unknowns; ``"lu"``: SciPy's SuperLU, the old path
+        (minutes at 1M tets). ``"auto"``: amg from 10k unknowns, else cholesky, falling
+        back to cholesky then lu when CG finds the system indefinite or its answer fails
+        the residual check (``info.fallbacks`` says why). What each costs, measured as
+        multiples of one assembly with the command to rerun: README, "Solvers".
     progress : bool, optional
         Phases and CG iterations on stderr (default: when stderr is a terminal).
     return_info : bool, default False

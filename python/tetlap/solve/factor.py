@@ -336,9 +336,9 @@ def factorize(A, *, solver: str = "auto", ordering="auto", progress=None) -> Fac
     Factor
         ``.solve(b)``, ``.refactor(A)``, ``.inertia()``, ``.info``.
 
-    Cost (SCALING.md, BENCHMARKS.md "Solving"): on the 974k-tet ball (139k unknowns) the
-    nested dissection and the ``LL^T`` take about 20x one assembly of the Laplacian, each
-    further solve about half an assembly, the factor about 0.8 GB. Ctrl-C is answered
+    Cost: README, "Solvers" (the nested dissection and the ``LL^T``, each further solve
+    and the factor's memory on a 974k-tet ball, as multiples of one assembly, with the
+    command to rerun). Ctrl-C is answered
     within 0.1 s; an interrupted factorization finishes in the background and is dropped.
     """
     A = _arrays.matrix(A, None, "A")
