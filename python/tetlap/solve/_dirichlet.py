@@ -34,9 +34,10 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
         Dirichlet energy ``-f^T L f`` of Eq. 28 under the constraints).
     method : {"eliminate", "replace"}, default "eliminate"
         ``"eliminate"`` solves the reduced system ``L_FF f_F = rhs_F - L_FB f_B``;
-        ``"replace"`` replaces the rows of fixed vertices by identity rows (paper Sec. 6)
-        and solves the full, non-symmetric system (``solver`` "auto" or "lu"). Both give
-        the same solution (to rounding).
+        ``"replace"`` replaces the rows of fixed vertices by identity rows (paper Sec. 6;
+        each multiplied by the power of two of its diagonal entry, exactly, so that the
+        rows are of one size at any scale of ``L``) and solves the full, non-symmetric
+        system (``solver`` "auto" or "lu"). Both give the same solution (to rounding).
     solver : {"auto", "amg", "cholesky", "lu"}, default "auto"
         ``"amg"``: CG preconditioned by smoothed aggregation (pyamg), for one solve of a
         large system (the fastest from about 10k unknowns); ``"cholesky"``: the core's
