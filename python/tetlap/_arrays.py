@@ -193,6 +193,9 @@ def matrix(A, n: int | None = None, name: str = "L", finite: bool = True) -> sp.
         raise DtypeError(f"{name} must hold real numbers, got dtype {A.dtype}")
     if sp.issparse(A) and A.dtype.kind not in "fiub":
         raise DtypeError(f"{name} must hold real numbers, got dtype {A.dtype}")
+    if A.ndim != 2:        # a 0-d or 3-d array: SciPy's own errors are a TypeError or bare
+        expected = f"({n}, {n})" if n is not None else "square"
+        raise ShapeError(f"{name} has shape {A.shape}, expected {expected}")
     A = sp.csr_array(A, dtype=np.float64, copy=True)
     if A.ndim != 2 or A.shape[0] != A.shape[1] or (n is not None and A.shape[0] != n):
         expected = f"({n}, {n})" if n is not None else "square"

@@ -3,7 +3,9 @@ solver layer chosen for the problem.
 
 Sign convention as everywhere in tetlap: ``L`` is the paper's Laplacian (``L[i, i] =
 -sum_j w_ij``), so ``-L`` is positive semidefinite for the primal; ``L f = b`` discretises
-``Laplace(f) = b`` integrated over vertex cells.
+``Laplace(f) = b`` integrated over vertex cells. A matrix with the other sign (a stiffness
+matrix, non-negative diagonal) is refused with an :class:`tetlap.OptionError`. Data paired
+with vertex indices keep the user's order: ``f[fixed[i]] = values[i]``.
 
 Every function takes ``solver=`` (``"auto"``, ``"amg"``, ``"cholesky"``, ``"lu"``: what each
 costs and when to pick it is in :func:`dirichlet` and SCALING.md), ``progress=`` and
@@ -16,7 +18,10 @@ component of the mesh without a constraint where one is needed is named before a
 is solved. CG is used where the system is positive definite, which it proves to be by
 running (a direction of negative curvature stops it, and ``"auto"`` moves on to a
 factorization); its answers pass the same residual check as every other. Vertices in no
-element take part in no system. Long solves answer Ctrl-C within a second.
+element (no edge in ``L``) take part in no system, and data there other than 0 are
+refused. Matrices scaled by ``2^-1000 .. 2^1000`` and meshes from 1e-150 to 1e150 are
+solved in frames scaled by powers of two (exact), with the unit answers scaled. Long solves answer Ctrl-C within a second. What each
+solver costs: README, "Solvers".
 
 >>> import numpy as np, tetlap
 >>> V, T = tetlap.meshes.cube(4, jitter=0.2)

@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .._progress import _interactive
+from . import _checks
 
 #: The relative 2-norm residual ``|b - A x| / |b|`` at which CG stops.
 CG_RTOL = 1e-10
@@ -55,6 +56,12 @@ def solve(A: sp.csr_array, b: np.ndarray, info, progress=None) -> np.ndarray:
     from scipy.sparse.csgraph import reverse_cuthill_mckee
 
     info.solver, info.method, info.ordering = "amg", "cg + smoothed aggregation", "reverse Cuthill-McKee"
+    # A 2^-a and b 2^-c in pyamg's range (exact): x = 2^(c - a) (A 2^-a)^-1 (b 2^-c)
+    a = _checks.band_exponent(_checks.row_norm(A))
+    c = _checks.band_exponent(float(np.abs(b).max(initial=0.0)))
+    if a:
+        A = sp.csr_array((np.ldexp(A.data, -a), A.indices, A.indptr), shape=A.shape)
+    b = np.ldexp(b, -c)
     with one_blas_thread():
         with info.phase("ordering"):
             perm = reverse_cuthill_mckee(A, symmetric_mode=True)
@@ -66,7 +73,7 @@ def solve(A: sp.csr_array, b: np.ndarray, info, progress=None) -> np.ndarray:
                 postsmoother=("gauss_seidel", {"sweep": "backward"}))
         residuals: list[float] = []
         bar = _bar(progress)
-        callback = (lambda x: bar.update(1)) if bar is not None else None
+        callback = _Progress(bar, residuals) if bar is not None else None
         # recorded, not shown: an indefinite matrix is reported below (pyamg's cg puts an
         # "always" filter of its own first, so an "ignore" filter would not hold)
         with info.phase("solve"), warnings.catch_warnings(record=True):
@@ -85,7 +92,28 @@ def solve(A: sp.csr_array, b: np.ndarray, info, progress=None) -> np.ndarray:
                      "iterations: the system is too ill-conditioned for it")
     x = np.empty_like(b)
     x[perm] = xp
-    return x
+    with np.errstate(over="ignore", under="ignore"):
+        return np.ldexp(x, c - a)
+
+
+#: The bar's total: the decimal digits CG gains on the relative residual.
+DIGITS = -np.log10(CG_RTOL)
+
+
+class _Progress:
+    """CG's callback that moves ``bar`` to the most digits gained so far on the relative
+    residual, ``log10(|r_0| / |r_k|)`` out of :data:`DIGITS` (full when CG converges;
+    the iteration cap, ``CG_MAXITER``, is no measure of progress: CG stopped at a tenth
+    of it), with the iterations beside it."""
+
+    def __init__(self, bar, residuals: list) -> None:
+        self.bar, self.residuals = bar, residuals
+
+    def __call__(self, x) -> None:
+        first, last = self.residuals[0], self.residuals[-1]
+        gained = DIGITS if last <= 0 else float(np.clip(np.log10(first / last), 0.0, DIGITS))
+        self.bar.set_postfix_str(f"{len(self.residuals) - 1} iterations", refresh=False)
+        self.bar.update(max(gained - self.bar.n, 0.0))
 
 
 def _bar(progress):
@@ -97,4 +125,5 @@ def _bar(progress):
         return None
     import sys
 
-    return tqdm(total=CG_MAXITER, desc="CG", file=sys.stderr, leave=False)
+    return tqdm(total=DIGITS, desc="CG residual digits", file=sys.stderr, leave=False,
+                bar_format="{desc}: {bar} {n:.1f}/{total:.0f} [{postfix}]")

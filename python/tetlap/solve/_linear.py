@@ -50,7 +50,7 @@ def _lu(A, b, info):
 
 def _refined(A, b, info, progress):
     """The cholesky solve, refined in extended precision when its answer is finite."""
-    F = _factor(A, info, progress)
+    F = factor(A, "cholesky", info, progress)
     if F._tiny is not None:
         raise SolveError(F._tiny)
     with info.phase("solve"):
@@ -60,11 +60,13 @@ def _refined(A, b, info, progress):
     return x
 
 
-def _factor(A, info, progress) -> Factor:
-    F = Factor(A, "cholesky", "auto", progress)
+def factor(A, solver: str, info, progress) -> Factor:
+    """The :class:`Factor` of ``A`` by ``solver`` ("cholesky" or "lu"), its phases, method
+    and fallbacks recorded in ``info``."""
+    F = Factor(A, solver, "auto", progress)
     for name, seconds in F.info.phases.items():
         info.phases[name] = info.phases.get(name, 0.0) + seconds
-    info.solver, info.method, info.ordering, info.iterations = "cholesky", F.info.method, F.info.ordering, None
+    info.solver, info.method, info.ordering, info.iterations = F.info.solver, F.info.method, F.info.ordering, None
     info.fallbacks += F.info.fallbacks
     return F
 

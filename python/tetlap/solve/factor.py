@@ -28,7 +28,7 @@ import scipy.sparse as sp
 from .. import _arrays, _core, _sparse
 from .._interrupt import interruptible
 from .._progress import Stages
-from ..errors import OptionError, ShapeError, SolveError
+from ..errors import DtypeError, OptionError, ShapeError, SolveError
 from . import _checks
 from .info import SolveInfo
 
@@ -152,10 +152,12 @@ class Factor:
         else:
             # Pr A Pc = L U: pivot k sits in row argsort(perm_r)[k], column argsort(perm_c)[k]
             rows, cols = np.argsort(self._lu.perm_r), np.argsort(self._lu.perm_c)
-            d = np.abs(self._A.diagonal())
-            scale = np.sqrt(d[rows] * d[cols])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ratios = np.where(scale > 0, np.abs(self._lu.U.diagonal()) / scale, np.inf)
+            root = np.sqrt(np.abs(self._A.diagonal()))
+            # |u_kk| / sqrt(|a_ii a_jj|) as two divisions: no product overflows (a
+            # diagonal of 1e155) or underflows
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
+                ratios = np.abs(self._lu.U.diagonal()) / root[rows] / root[cols]
+            ratios = np.where((root[rows] > 0) & (root[cols] > 0), ratios, np.inf)
             k = int(np.argmin(ratios)) if len(ratios) else 0
             row, ratio = (int(rows[k]), float(ratios[k])) if len(ratios) else (0, np.inf)
         if ratio > PIVOT_RTOL:
@@ -176,13 +178,18 @@ class Factor:
 
     def refactor(self, A) -> None:
         """Factorizes new values ``A`` (``(n, n)``, non-zeros within the pattern of the
-        factorized matrix), reusing the ordering and the symbolic analysis."""
+        factorized matrix), reusing the ordering and the symbolic analysis; a cholesky
+        factorization takes symmetric values only (:class:`tetlap.OptionError`)."""
         A = _arrays.matrix(A, self.n, "A")
         if self._core is None:
             self._A, self._norm = A, _checks.row_norm(A)
             self._factor_lu(A)
             return
         data = _within(A, self._A)
+        if not _symmetric(A):
+            raise OptionError("refactor: the matrix is not symmetric, and this factorization "
+                              f"is a {self.info.method} of symmetric ones; factorize it anew "
+                              "with solver=\"lu\"")
         old = self._A
         self._A = sp.csr_array((data, old.indices, old.indptr), shape=old.shape)
         self._norm = _checks.row_norm(self._A)
@@ -213,11 +220,16 @@ class Factor:
 
     def solve(self, b) -> np.ndarray:
         """``x`` with ``A x = b`` for ``b`` of shape ``(n,)`` or ``(n, k)`` (float64, a new
-        array), each column residual-checked; :class:`tetlap.SolveError` if one fails or
-        the matrix is singular to working precision (:data:`PIVOT_RTOL`)."""
+        array of the shape of ``b``; ``k = 0`` and ``n = 0`` give an empty one), each column
+        residual-checked; :class:`tetlap.SolveError` if one fails or the matrix is singular
+        to working precision (:data:`PIVOT_RTOL`)."""
         arr = _arrays._as_array(b, "b")
         if arr.ndim not in (1, 2) or arr.shape[0] != self.n:
             raise ShapeError(f"b must have shape ({self.n},) or ({self.n}, k), got {arr.shape}")
+        if arr.size == 0:               # n = 0, or no column: nothing to solve
+            if arr.dtype.kind not in "fiub":
+                raise DtypeError(f"b must hold real numbers, got dtype {arr.dtype}")
+            return np.zeros(arr.shape)
         flat = arr.reshape(self.n, -1)
         flat = np.column_stack([_arrays.vector(flat[:, j], self.n, "b") for j in range(flat.shape[1])]) \
             if flat.shape[1] else np.zeros((self.n, 0))
@@ -324,9 +336,9 @@ def factorize(A, *, solver: str = "auto", ordering="auto", progress=None) -> Fac
     Factor
         ``.solve(b)``, ``.refactor(A)``, ``.inertia()``, ``.info``.
 
-    Cost (SCALING.md, BENCHMARKS.md "Solving"): on the 974k-tet ball (139k unknowns) the
-    nested dissection and the ``LL^T`` take about 20x one assembly of the Laplacian, each
-    further solve about half an assembly, the factor about 0.8 GB. Ctrl-C is answered
+    Cost: README, "Solvers" (the nested dissection and the ``LL^T``, each further solve
+    and the factor's memory on a 974k-tet ball, as multiples of one assembly, with the
+    command to rerun). Ctrl-C is answered
     within 0.1 s; an interrupted factorization finishes in the background and is dropped.
     """
     A = _arrays.matrix(A, None, "A")

@@ -25,7 +25,8 @@ class SolveInfo:
         The fill-reducing (direct solvers) or memory (AMG) ordering: ``"nested dissection
         (METIS)"``, ``"amd"``, ``"reverse Cuthill-McKee"``, ``"colamd"``.
     iterations : int or None
-        CG iterations (AMG) or shift-invert solves (eigs); None for a direct solve.
+        CG iterations (AMG), shift-invert solves (eigs) or proximal steps
+        (neumann_primal_kkt); None for a direct solve.
     residual : float
         The largest relative residual of what is returned (:data:`tetlap.solve.RESIDUAL_TOL`
         bounds it): ``|A x - b|_inf / (|A|_inf |x|_inf + |b|_inf)``, or for eigenpairs
