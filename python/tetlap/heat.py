@@ -359,9 +359,7 @@ class HeatDistance:
         step.done()
 
     @property
-    def t(self) -> float:
-        """The heat step's time in the caller's units (an OverflowError when the default
-        ``h^2`` is beyond the float64 range)."""
+    def t(self) -> float:     # documented under Attributes
         mantissa, texp = self._t
         try:
             return _scaled(mantissa, texp + 2 * self._e)
