@@ -60,8 +60,8 @@ def test_dual_of_flat_tets_equals_exact_rationals(kind, flatness, weight_scale, 
         T = np.array([[0, 1, 2, 3]])
         squared = min(np.sum((P[a] - P[b]) ** 2) for a, b in ex.EDGES)
         w = rng.uniform(0, weight_scale * squared, 4) if weight_scale else None
-        W = tetlap.tet_contributions(P, T, "dual", weights=w, boundary=boundary)[0]
-        M = tetlap.mass(P, T, "circumcentric", weights=w, boundary=boundary).diagonal()
+        W = tetlap.tet_contributions(P, T, "dual", weights=w, boundary_centres=boundary)[0]
+        M = tetlap.mass(P, T, "circumcentric", weights=w, boundary_centres=boundary).diagonal()
         placement = "centres" if boundary == "circumcentric" else "centroids"
         we, me = ex.dual_tet([ex.vec(p) for p in P], None if w is None else list(w), placement)
         worst = max(worst, _worst(W, we), _worst(M, me))

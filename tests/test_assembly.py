@@ -334,13 +334,13 @@ def test_weights_are_validated(ball):
         tetlap.laplacian(V, T, "dual", weights=w)
     assert e.value.vertex == 7
     with pytest.raises(tetlap.OptionError, match="boundary"):
-        tetlap.laplacian(V, T, "dual", boundary="voronoi")
+        tetlap.laplacian(V, T, "dual", boundary_centres="voronoi")
 
 
 def test_primal_ignores_the_boundary_treatment_and_refuses_weights(ball):
     V, T = ball
     P = tetlap.laplacian(V, T, "primal")
-    Q = tetlap.laplacian(V, T, "primal", boundary="barycentric")
+    Q = tetlap.laplacian(V, T, "primal", boundary_centres="barycentric")
     assert (P != Q).nnz == 0
     with pytest.raises(tetlap.OptionError, match="belong to the dual"):   # issue 37: ignored
         tetlap.laplacian(V, T, "primal", weights=np.ones(len(V)))
@@ -355,12 +355,12 @@ def boundary_tet_mask(T):
 def test_barycentric_boundary_guarantees_and_cost():
     V, T = tetlap.meshes.ball(1500, seed=8)
     fixed = boundary_tet_mask(T)
-    W = tetlap.element_contributions(V, T, "dual", boundary="barycentric")
+    W = tetlap.element_contributions(V, T, "dual", boundary_centres="barycentric")
     W0 = tetlap.element_contributions(V, T, "dual")
     assert (W0[fixed] < 0).any()  # the plain construction has negative boundary weights
     assert (W[fixed] >= 0).all()  # guarantee: non-negative contributions in fixed tets
     np.testing.assert_array_equal(W[~fixed], W0[~fixed])  # other tets untouched
-    L, M = tetlap.operators(V, T, "dual", "circumcentric", boundary="barycentric")
+    L, M = tetlap.operators(V, T, "dual", "circumcentric", boundary_centres="barycentric")
     m = M.diagonal()
     assert (m > 0).all()  # guarantee: positive mass everywhere
     assert m.sum() == pytest.approx(np.abs(signed_volumes(V, T)).sum(), rel=1e-12)
@@ -383,7 +383,7 @@ def test_barycentric_boundary_guarantees_and_cost():
 def test_mesh_with_weights_and_boundary_matches_one_shot(ball, rng):
     V, T = ball
     w = rng.uniform(0, 1e-3, size=len(V))
-    kw = dict(weights=w, boundary="barycentric")
+    kw = dict(weights=w, boundary_centres="barycentric")
     mesh = tetlap.Mesh(V, T, **kw)
     assert (mesh.laplacian("dual") != tetlap.laplacian(V, T, "dual", **kw)).nnz == 0
     V2 = V.copy()

@@ -146,7 +146,7 @@ def test_the_numeric_flags_are_known():
         "info --regular-time", "info --threads", "assemble --threads",
         "bench --threads", "bench --repeat", "bench --cap", "experiment --seed",
         "improve --margin", "improve --iterations", "improve --step", "improve --threads",
-        "geodesic --source", "geodesic --time", "geodesic --threads"}
+        "geodesic --time", "geodesic --threads"}   # --source: an index, a point or "boundary"
 
 
 @pytest.mark.parametrize("command, flag, kind", NUMERIC)

@@ -101,9 +101,9 @@ def test_barycentric_boundary_guarantees_on_real_meshes(real_mesh):
     key = (F[:, 0] * len(V) + F[:, 1]) * len(V) + F[:, 2]  # one integer per sorted face
     _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
     fixed = (counts[inverse.ravel()] == 1).reshape(-1, 4).any(axis=1)
-    W = tetlap.element_contributions(V, T[fixed], "dual", boundary="barycentric")
+    W = tetlap.element_contributions(V, T[fixed], "dual", boundary_centres="barycentric")
     assert W.min() >= -1e-12 * np.abs(W).max(), name
-    M = tetlap.mass(V, T[fixed], "circumcentric", boundary="barycentric").diagonal()
+    M = tetlap.mass(V, T[fixed], "circumcentric", boundary_centres="barycentric").diagonal()
     assert M.min() >= 0, name
     plain = tetlap.element_contributions(V, T[fixed], "dual")
     assert plain.min() < 0 or name in {"svfsi_block_kuhn_197k.vtu", "sofa_6_tetra_bad.msh"}, name

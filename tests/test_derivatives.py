@@ -338,12 +338,12 @@ def test_errors():
     with pytest.raises(tetlap.NonFiniteError):
         tetlap.vjp(V, T, mass="fem", dM=sp.diags_array(bad))
     with pytest.raises(tetlap.OptionError, match="barycentric"):
-        tetlap.dirichlet_energy(V, T, f, "dual", boundary="barycentric")
+        tetlap.dirichlet_energy(V, T, f, "dual", boundary_centres="barycentric")
     with pytest.raises(tetlap.OptionError, match="barycentric"):
-        tetlap.mass_energy(V, T, f, "circumcentric", boundary="barycentric")
+        tetlap.mass_energy(V, T, f, "circumcentric", boundary_centres="barycentric")
     # the primal and the barycentric mass do not use the boundary treatment
-    tetlap.dirichlet_energy(V, T, f, "primal", boundary="barycentric")
-    tetlap.mass_energy(V, T, f, "barycentric", boundary="barycentric")
+    tetlap.dirichlet_energy(V, T, f, "primal", boundary_centres="barycentric")
+    tetlap.mass_energy(V, T, f, "barycentric", boundary_centres="barycentric")
     with pytest.raises(tetlap.OptionError):
         tetlap.dirichlet_energy(V, T, f, "cotan")
     with pytest.raises(tetlap.OptionError):

@@ -74,7 +74,7 @@ def test_each_core_error_arrives_as_its_class_with_its_attributes():
     with pytest.raises(tetlap.OptionError, match=r"\[0, 1\]"):
         tetlap.laplacian(CORNER_V, [[0, 1, 2, 3]], 2.0)
     with pytest.raises(tetlap.OptionError, match="tet meshes only"):
-        tetlap.laplacian([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], boundary="barycentric")
+        tetlap.laplacian([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], boundary_centres="barycentric")
 
 
 def test_a_cached_mesh_names_the_element_that_an_update_makes_degenerate():
@@ -142,9 +142,8 @@ def test_kind_errors_name_no_argument_the_call_did_not_use():
         (lambda: tetlap.HeatDistance(V, T, laplacian="cotan"), "Laplacian kind"),
         (lambda: tetlap.vjp(V, T, "cotan"), "Laplacian kind"),
         (lambda: tetlap.mass_energy(V, T, f, "cotan"), "mass kind"),
-        (lambda: tetlap.laplacian(V, T, boundary="cotan"), "boundary treatment of the dual"),
-        (lambda: tetlap.HeatDistance(V, T, dual_boundary="cotan"),
-         "boundary treatment of the dual"),
+        (lambda: tetlap.laplacian(V, T, boundary_centres="cotan"), "boundary_centres"),
+        (lambda: tetlap.HeatDistance(V, T, boundary_centres="cotan"), "boundary_centres"),
     ]:
         with pytest.raises(tetlap.OptionError) as e:
             call()

@@ -212,3 +212,74 @@ def test_auto_proves_the_principle_wherever_the_dual_or_regular_weights_allow(re
         dual, regular = r.reason.split("(", 1)[1].split(";")[:2]
         assert "negative weight" in dual and "regular" in regular, (name, r.reason)
         assert "regular_weights: regular" not in r.reason, (name, r.reason)
+
+
+def test_values_are_paired_with_fixed_as_given_whatever_the_order():
+    """``f[fixed[i]] = values[i]``: shuffling the pairs changes nothing, for one column and
+    several, with every operator."""
+    V, T = tetlap.meshes.weighted_ball(300, 1.0, seed=2)
+    b = boundary(T, len(V))
+    values = np.column_stack([V[b, 0], np.sin(5 * V[b, 1]), np.arange(len(b))])
+    rng = np.random.default_rng(7)
+    for laplacian in ("auto", "primal", "dual"):
+        r = tetlap.harmonic(V, T, b, values, laplacian=laplacian)
+        assert np.array_equal(r.field[b], values)
+        for _ in range(3):
+            p = rng.permutation(len(b))
+            shuffled = tetlap.harmonic(V, T, b[p], values[p], laplacian=laplacian)
+            assert np.array_equal(shuffled.field, r.field), laplacian
+            assert np.array_equal(shuffled.field[b[p]], values[p])
+            one = tetlap.harmonic(V, T, b[p], values[p, 1], laplacian=laplacian)
+            assert np.array_equal(one.field, r.field[:, 1])
+
+
+def test_auto_falls_back_when_regular_weights_refuses_the_mesh():
+    # at 1e-155 the regular weights of this mesh are beyond float64 in its units:
+    # regular_weights refuses (NonFiniteError), and harmonic raised it instead of falling
+    # back to the primal
+    V, T = tetlap.meshes.weighted_ball(300, 1.0, seed=0)
+    b = boundary(T, len(V))
+    assert tetlap.harmonic(V, T, b, step(V, b)).laplacian == "weighted dual"
+    with pytest.raises(tetlap.NonFiniteError):
+        tetlap.regular_weights(V * 1e-155, T)
+    r = tetlap.harmonic(V * 1e-155, T, b, step(V, b))
+    assert r.laplacian == "primal" and not r.proved and r.weights is None
+    assert "regular_weights: the regular weights of this mesh" in r.reason
+    assert np.abs(r.field - tetlap.harmonic(V, T, b, step(V, b), laplacian="primal").field
+                  ).max() < 1e-12
+
+
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_the_field_is_the_same_at_any_scale(k):
+    # the biharmonic's barycentric mass left float64 beyond 1e100 (DegenerateElementError)
+    V, T = tetlap.meshes.cube(4, jitter=0.2, seed=1)
+    b = boundary(T, len(V))
+    values = V[b, 0] ** 2 - V[b, 1]
+    r = tetlap.harmonic(V, T, b, values, k=k)
+    for j in (-450, -300, -64, 3, 64, 300, 450):
+        scaled = tetlap.harmonic(np.ldexp(V, j), T, b, values, k=k)
+        assert np.array_equal(scaled.field, r.field) and scaled.laplacian == r.laplacian, j
+    # other scales: the same operator to rounding (regular_weights, an iterative search,
+    # may find other weights: the primal is compared)
+    primal = tetlap.harmonic(V, T, b, values, k=k, laplacian="primal").field
+    for s in (1e-150, 1e-110, 1e110, 1e150):
+        scaled = tetlap.harmonic(V * s, T, b, values, k=k, laplacian="primal")
+        assert np.abs(scaled.field - primal).max() < 1e-12, s
+        assert tetlap.harmonic(V * s, T, b, values, k=k).proved == r.proved
+
+
+def test_maximum_principle_refuses_the_stiffness_sign_and_checks_its_masks():
+    V, T = tetlap.meshes.cube(3)
+    fixed = tetlap.diagnostics.boundary_vertices(V, T)
+    L = tetlap.laplacian(V, T, "dual")
+    used = np.ones(len(V), bool)
+    assert maximum_principle(L, fixed, used)[1]
+    with pytest.raises(tetlap.OptionError, match="non-negative diagonal.*-K"):
+        maximum_principle(-L, fixed, used)
+    with pytest.raises(tetlap.ShapeError):
+        maximum_principle(L, fixed[:-1], used)
+    with pytest.raises(tetlap.ShapeError):
+        maximum_principle(L[:5, :5], fixed, used)
+    # integer indices are a mask too
+    assert maximum_principle(L, np.flatnonzero(fixed), used)[1:] == \
+        maximum_principle(L, fixed, used)[1:]

@@ -180,7 +180,7 @@ def test_fuzz_any_mesh_gives_finite_operators_or_a_documented_error(mesh, kind, 
                                                                      boundary):
     V, T = mesh
     try:
-        L, M = tetlap.operators(V, T, kind, mass, degenerate=degenerate, boundary=boundary)
+        L, M = tetlap.operators(V, T, kind, mass, degenerate=degenerate, boundary_centres=boundary)
     except tetlap.DegenerateElementError as e:
         assert degenerate == "raise" and e.element is not None and 0 <= e.element < len(T)
         return

@@ -203,3 +203,17 @@ def test_far_from_everyday_units_the_same_moves_without_warnings(mesh):
     assert big.after["negative_interior"] == small.after["negative_interior"]
     assert big.after["negative_interior"] < big.before["negative_interior"]
     assert np.isfinite(huge.after["min_volume"]) and huge.after["min_volume"] > 0
+
+
+def test_fixed_is_a_set_its_order_and_form_do_not_matter():
+    """``fixed`` pairs no data with its vertices: any order, repeats, or the mask give the
+    same moves (it is read as a mask, never sorted against other data)."""
+    V, T = tetlap.meshes.weighted_ball(120, 1.0, seed=1)
+    inner = np.flatnonzero(~tetlap.diagnostics.boundary_vertices(V, T))[:6]
+    base = imp.improve(V, T, fixed=inner, max_iterations=3)
+    assert np.array_equal(base.V[inner], V[inner]) and not np.array_equal(base.V, V)
+    mask = np.zeros(len(V), bool)
+    mask[inner] = True
+    shuffled = np.random.default_rng(3).permutation(np.concatenate([inner, inner[:2]]))
+    for fixed in (shuffled.astype(np.int32), mask):
+        assert np.array_equal(imp.improve(V, T, fixed=fixed, max_iterations=3).V, base.V)

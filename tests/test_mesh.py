@@ -129,12 +129,12 @@ def test_properties_copies_and_shared_read_only_pattern():
 def test_mesh_of_a_mesh_object_and_options_apply_to_every_operator():
     meshio = pytest.importorskip("meshio")
     V, T = tetlap.meshes.ball(300, seed=4)
-    mesh = tetlap.Mesh(meshio.Mesh(V, [("tetra", T)]), boundary="barycentric", threads=2)
+    mesh = tetlap.Mesh(meshio.Mesh(V, [("tetra", T)]), boundary_centres="barycentric", threads=2)
     for kind in KINDS:
-        expected = tetlap.laplacian(V, T, kind, boundary="barycentric")
+        expected = tetlap.laplacian(V, T, kind, boundary_centres="barycentric")
         assert_bitwise(([mesh.laplacian(kind)], []), ([expected], []))
     assert (mesh.mass("circumcentric") != tetlap.mass(V, T, "circumcentric",
-                                                      boundary="barycentric")).nnz == 0
+                                                      boundary_centres="barycentric")).nnz == 0
     with pytest.raises(tetlap.OptionError):
         mesh.laplacian("cotan")
     with pytest.raises(tetlap.OptionError):

@@ -321,3 +321,26 @@ def test_generators_leak_no_third_party_exception(monkeypatch):
     with pytest.raises(tetlap.OptionError, match=r"ball\(100\): the mesh does not fit in memory"):
         meshes.ball(100)
     assert meshes.cube(np.int64(2))[1].shape == (48, 4)   # NumPy integers are integers
+
+
+@pytest.mark.parametrize("generator, steps", [
+    (lambda p: meshes.ball(300, progress=p),
+     ["points", "Delaunay tetrahedralisation (Qhull)", "orient, drop flat tets"]),
+    (lambda p: meshes.weighted_ball(300, 0.5, progress=p),
+     ["points", "regular tetrahedralisation (Qhull)", "orient, drop flat tets"]),
+    (lambda p: meshes.shell(400, progress=p),
+     ["points", "regular tetrahedralisation (Qhull)", "orient, drop flat tets"]),
+    (lambda p: meshes.sphere3(100, progress=p), ["points", "convex hull (Qhull)"]),
+])
+def test_the_generators_report_their_steps(generator, steps, capsys):
+    """``ball(10**6)`` ran 2 minutes in silence; its steps go to stderr when asked (by
+    default when stderr is a terminal), one whole line each off a terminal."""
+    name = generator.__code__.co_names[-1]
+    plain = generator(False)
+    assert capsys.readouterr().err == ""
+    told = generator(True)
+    assert capsys.readouterr().err.splitlines() == [
+        f"tetlap.meshes.{name}: {step} ..." for step in steps]
+    assert all(np.array_equal(a, b) for a, b in zip(plain, told))
+    with pytest.raises(tetlap.OptionError, match="progress must be True or False"):
+        generator("yes")

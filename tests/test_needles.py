@@ -79,9 +79,9 @@ def computed(P, kind, weights=None):
     if kind == "weighted mass":
         return tetlap.mass(P, T1, "circumcentric", weights=weights).diagonal()
     if kind == "barycentric":
-        return tetlap.element_contributions(P, T1, "dual", boundary="barycentric")[0]
+        return tetlap.element_contributions(P, T1, "dual", boundary_centres="barycentric")[0]
     if kind == "barycentric mass":
-        return tetlap.mass(P, T1, "circumcentric", boundary="barycentric").diagonal()
+        return tetlap.mass(P, T1, "circumcentric", boundary_centres="barycentric").diagonal()
     return tetlap.mass(P, T1, kind).diagonal()
 
 

@@ -219,7 +219,7 @@ def test_bad_input_and_options_raise_tetlap_errors():
     flat = np.vstack([V, V[T[0, 0]]])
     with pytest.raises(tetlap.DegenerateElementError, match="flat"):
         regular_weights(flat, np.vstack([T, [[T[0, 0], T[0, 1], T[0, 2], len(V)]]]))
-    for bad in [dict(target_margin=-1), dict(target_margin=np.nan), dict(boundary="fixed"),
+    for bad in [dict(target_margin=-1), dict(target_margin=np.nan), dict(boundary_weights="fixed"),
                 dict(mass_floor=1.0), dict(max_weight=0), dict(time_limit=0),
                 dict(time_limit=np.inf), dict(max_iterations=0), dict(max_iterations=2.5),
                 dict(threads=0)]:
@@ -230,7 +230,7 @@ def test_bad_input_and_options_raise_tetlap_errors():
 def test_boundary_zero_keeps_boundary_weights_at_zero():
     V, T = tetlap.meshes.weighted_ball(400, 1.0, seed=0)
     b = tetlap.diagnostics.boundary_vertices(T, len(V))
-    r = regular_weights(V, T, boundary="zero")
+    r = regular_weights(V, T, boundary_weights="zero")
     assert not r.weights[b].any()
     if r.regular:
         assert r.n_negative_interior_weighted == 0

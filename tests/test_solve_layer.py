@@ -156,7 +156,7 @@ def test_heat_distance_orders_the_mesh_once(ball, monkeypatch):
     monkeypatch.setattr(factor, "nested_dissection", lambda A: calls.append(A.shape) or real(A))
     for boundary, factorizations in (("neumann", 2), ("average", 3)):
         calls.clear()
-        heat = tetlap.HeatDistance(*ball, boundary=boundary)
+        heat = tetlap.HeatDistance(*ball, boundary_condition=boundary)
         assert heat.n_factorizations == factorizations
         assert calls == [(len(ball[0]),) * 2]
 

@@ -67,7 +67,9 @@ def upper(L) -> np.ndarray:
 
 def forward(s: Spec, V: np.ndarray, weights: np.ndarray | None):
     """``(w (E,), m (n,))`` float64 for float64 positions ``V`` (n, d)."""
-    n, opts = V.shape[0], s.options
+    n = V.shape[0]
+    opts = {"boundary_centres": s.options["boundary"], "degenerate": s.options["degenerate"],
+            "threads": s.options["threads"]}      # the core's options, as keywords
     if s.kind is not None and s.mass_kind is not None:
         L, M = assembly.operators(V, s.T, s.kind, s.mass_kind, weights=weights, **opts)
     elif s.kind is not None:

@@ -51,12 +51,13 @@ kind : {"barycentric", "circumcentric", "mixed", "fem"}, default "barycentric"
     and positive on every mesh; of the plain circumcentres (no vertex weights). ``"fem"``: the consistent P1 mass
     ``Vol (1 + delta_ab) / 20`` (triangles: ``/ 12``), not diagonal.""",
     "options": """\
-boundary : {"circumcentric", "barycentric"}, default "circumcentric"
-    Dual vertices of tets with a boundary face (paper Sec. 6). ``"barycentric"``: in such
-    tets a tet or face circumcenter outside its simplex is replaced by the centroid, which
-    makes their contributions to dual weights and circumcentric masses non-negative, at
-    the cost of linear precision at their vertices. Affects the dual and the
-    circumcentric mass; tets only.
+boundary_centres : {"circumcentric", "barycentric"}, default "circumcentric"
+    The dual's centres in tets with a boundary face (paper Sec. 6). ``"barycentric"``: in
+    such tets a tet or face circumcenter outside its simplex is replaced by the centroid,
+    which makes their contributions to dual weights and circumcentric masses non-negative,
+    at the cost of linear precision at their vertices. Affects the dual and the
+    circumcentric mass; tets only. (Called ``boundary`` until 0.1; that name still works,
+    deprecated.)
 weights : (n,) array-like of real numbers, optional
     Vertex weights in squared-length units for the dual and the circumcentric mass:
     weighted circumcenters (equal power ``|c - x_i|^2 - w_i``), i.e. the orthogonal dual

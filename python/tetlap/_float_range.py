@@ -62,13 +62,11 @@ UNIT_BAND = (2.0**-64, 2.0**64)
 def unit_scale(V, T) -> float:
     """A power of two ``s`` such that ``V / s`` has edges of about unit length, for the
     scale-free computations that take powers of lengths in NumPy (the quality barrier of
-    :func:`tetlap.improve.improve`, :func:`tetlap.regular_weights`, the heat step of
-    :class:`tetlap.HeatDistance`); ``V`` (n, 3) the vertices in tets only (so that a vertex
-    in none changes nothing), ``T`` (m, 4) or (m, 3) on them. 1.0 for the meshes of any real-world
-    unit (box between ``2^-64`` and ``2^64``), which are computed as given; beyond, the
-    geometric mean of the shortest and the longest edge, so that a mesh spanning many
-    orders of magnitude (a needle of 1e150 on a unit base) keeps both ends' volumes in the
-    float64 range. Dividing by ``s`` and multiplying back are exact.
+    :func:`tetlap.improve.improve`, :func:`tetlap.regular_weights`); ``V`` (n, 3) the
+    vertices in tets only (so that a vertex in none changes nothing), ``T`` (m, 4) or
+    (m, 3) on them. 1.0 for the meshes of any real-world unit (box between ``2^-64`` and
+    ``2^64``), which are computed as given; beyond, ``2^frame_exponent(V, T)``. Dividing by
+    ``s`` and multiplying back are exact.
 
     >>> import numpy as np
     >>> T = np.array([[0, 1, 2, 3]])
@@ -79,10 +77,31 @@ def unit_scale(V, T) -> float:
     extent = float(np.ptp(V, axis=0).max()) if len(V) else 0.0
     if UNIT_BAND[0] <= extent <= UNIT_BAND[1] or not np.isfinite(extent) or extent == 0:
         return 1.0
-    X = V[T]
+    return float(2.0 ** frame_exponent(V, T))
+
+
+def frame_exponent(V, T) -> int:
+    """The exponent ``k`` of the power of two ``2^k`` that brings the mesh to unit size, for
+    every mesh (also those in :data:`UNIT_BAND`): the mean of the binary exponents of the
+    shortest and the longest edge (each measured by its largest coordinate difference,
+    within ``sqrt(3)`` of its length), so that a mesh spanning many orders of magnitude
+    (a needle of 1e150 on a unit base) keeps both ends' volumes in the float64 range.
+    ``frame_exponent(2^j V, T) == frame_exponent(V, T) + j`` exactly, so that a computation
+    in the frame ``V / 2^k`` is bitwise the same for every power-of-two scaling of a mesh
+    (:class:`tetlap.HeatDistance`). ``V`` (n, d) float64 finite, ``T`` (m, k) int64 on it; 0
+    for a mesh with no edge of non-zero length.
+
+    >>> import numpy as np
+    >>> T = np.array([[0, 1, 2, 3]])
+    >>> frame_exponent(np.eye(4)[:, :3], T), frame_exponent(0.1 * np.eye(4)[:, :3], T)
+    (1, -3)
+    """
+    X = np.asarray(V, dtype=np.float64)[T]
     k = T.shape[1]
     edges = np.concatenate([X[:, b] - X[:, a] for a in range(k) for b in range(a + 1, k)])
     longest = np.abs(edges).max(axis=1)                   # within sqrt(3) of the length
     longest = longest[longest > 0]
+    if not len(longest):
+        return 0
     exponents = np.frexp(np.array([longest.min(), longest.max()]))[1]
-    return float(2.0 ** ((int(exponents[0]) + int(exponents[1])) // 2))
+    return (int(exponents[0]) + int(exponents[1])) // 2

@@ -16,22 +16,32 @@ tetlap.errors.OptionError: --step must be a positive number
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
+import warnings
 
 from .errors import OptionError
 
 __all__ = ["positive", "non_negative", "tolerance", "finite", "count", "threads", "at_most",
-           "at_least", "flag", "weights_used", "MAX_SECONDS", "UNWEIGHTED_KINDS"]
+           "at_least", "flag", "weights_used", "renamed", "MAX_SECONDS", "UNWEIGHTED_KINDS"]
 
 
 def _real(value) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
+def _finite(value) -> bool:
+    """``math.isfinite``, False for an int beyond float64 (10**400) instead of raising."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
 def positive(value, name: str) -> float:
     """``value`` if it is a finite number > 0."""
-    if not (_real(value) and math.isfinite(value) and value > 0):
+    if not (_real(value) and _finite(value) and value > 0):
         raise OptionError(f"{name} must be a positive number")
     return value
 
@@ -47,7 +57,7 @@ def flag(value, name: str) -> bool:
 
 def non_negative(value, name: str) -> float:
     """``value`` if it is a finite number >= 0."""
-    if not (_real(value) and math.isfinite(value) and value >= 0):
+    if not (_real(value) and _finite(value) and value >= 0):
         raise OptionError(f"{name} must be a non-negative number")
     return value
 
@@ -62,7 +72,7 @@ def tolerance(value, name: str) -> float:
 
 def finite(value, name: str) -> float:
     """``value`` if it is a finite real number (a shift, a signed level)."""
-    if not (_real(value) and math.isfinite(value)):
+    if not (_real(value) and _finite(value)):
         raise OptionError(f"{name} must be a finite real number, got {value!r}")
     return value
 
@@ -143,3 +153,37 @@ def weights_used(given: bool, kinds, name: str = "weights") -> None:
             f"circumcentric mass use); {what} {'does' if len(asked) == 1 else 'do'} not "
             f'depend on them and would ignore them: drop them, or ask for "dual" or '
             f'"circumcentric"')
+
+
+def renamed(**old_to_new: str):
+    """Decorator: the keywords of a function renamed as ``old="new"`` keep working under
+    their old names, with a :class:`DeprecationWarning` that names both (pointing at the
+    caller's line); passing both names is a ``TypeError``, as a keyword given twice is.
+    The one rule for every renamed keyword of the API.
+
+    >>> import warnings
+    >>> @renamed(size="length")
+    ... def f(*, length=1.0):
+    ...     return length
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     f(size=2.0), str(caught[0].message)
+    (2.0, 'f(): the keyword size= is deprecated, use length= (it takes the same values)')
+    """
+    def decorate(f):
+        name = f.__qualname__.removesuffix(".__init__")
+
+        @functools.wraps(f)
+        def wrapper(*args, **kwargs):
+            for old, new in old_to_new.items():
+                if old in kwargs:
+                    if new in kwargs:
+                        raise TypeError(f"{name}() got both {old}= (deprecated) and {new}=: "
+                                        f"pass {new}= only")
+                    warnings.warn(f"{name}(): the keyword {old}= is deprecated, use {new}= "
+                                  "(it takes the same values)", DeprecationWarning, stacklevel=2)
+                    kwargs[new] = kwargs.pop(old)
+            return f(*args, **kwargs)
+
+        return wrapper
+    return decorate

@@ -15,6 +15,7 @@ import scipy.sparse as sp
 from . import _arrays, _core, _sparse
 from ._options import weights_used
 from ._docs import shared_docs
+from ._options import renamed
 
 __all__ = [
     "laplacian",
@@ -45,9 +46,10 @@ def _assemble(what: tuple, V, T, weights, boundary, degenerate, threads):
     return _core.assemble(V, T, what, weights=w, options=options), V.shape[0]
 
 
+@renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
-def laplacian(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
+def laplacian(V, T=None, kind="primal", *, boundary_centres="circumcentric", weights=None,
               degenerate="raise", threads=None) -> sp.csr_array:
     """The (n, n) Laplacian of a tetrahedral or triangle mesh.
 
@@ -76,13 +78,14 @@ def laplacian(V, T=None, kind="primal", *, boundary="circumcentric", weights=Non
     >>> L[[0], :].toarray().round(4)
     array([[-0.75,  0.25,  0.25,  0.25]])
     """
-    arrays, n = _assemble(("laplacian", kind), V, T, weights, boundary, degenerate, threads)
+    arrays, n = _assemble(("laplacian", kind), V, T, weights, boundary_centres, degenerate, threads)
     return _sparse.csr(arrays, n)
 
 
+@renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
-def mass(V, T=None, kind="barycentric", *, boundary="circumcentric", weights=None,
+def mass(V, T=None, kind="barycentric", *, boundary_centres="circumcentric", weights=None,
          degenerate="raise", threads=None) -> sp.csr_array:
     """The (n, n) mass matrix of a tetrahedral or triangle mesh.
 
@@ -108,13 +111,15 @@ def mass(V, T=None, kind="barycentric", *, boundary="circumcentric", weights=Non
     >>> tetlap.mass(V, [[0, 1, 2, 3]], kind="circumcentric").diagonal() * 72
     array([9., 1., 1., 1.])
     """
-    result, n = _assemble(("mass", kind), V, T, weights, boundary, degenerate, threads)
+    result, n = _assemble(("mass", kind), V, T, weights, boundary_centres, degenerate, threads)
     return _sparse.mass(result, n)
 
 
+@renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
-def operators(V, T=None, laplacian="primal", mass="barycentric", *, boundary="circumcentric",
+def operators(V, T=None, laplacian="primal", mass="barycentric", *,
+              boundary_centres="circumcentric",
               weights=None, degenerate="raise",
               threads=None) -> tuple[sp.csr_array, sp.csr_array]:
     """The Laplacian and a mass matrix from one pass over the elements.
@@ -145,8 +150,8 @@ def operators(V, T=None, laplacian="primal", mass="barycentric", *, boundary="ci
     >>> round(float(M.sum()), 12)
     1.0
     """
-    (L, M), n = _assemble(("operators", laplacian, mass), V, T, weights, boundary, degenerate,
-                          threads)
+    (L, M), n = _assemble(("operators", laplacian, mass), V, T, weights, boundary_centres,
+                          degenerate, threads)
     return _sparse.csr(L, n), _sparse.mass(M, n)
 
 
@@ -160,9 +165,10 @@ class Triplets(NamedTuple):
     shape: tuple[int, int]
 
 
+@renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
-def triplets(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
+def triplets(V, T=None, kind="primal", *, boundary_centres="circumcentric", weights=None,
              degenerate="raise", threads=None) -> Triplets:
     """The Laplacian as unsummed triplets: each element's local Laplacian.
 
@@ -191,14 +197,15 @@ def triplets(V, T=None, kind="primal", *, boundary="circumcentric", weights=None
     >>> bool(abs(L - tetlap.laplacian(V, T)).max() < 1e-12)
     True
     """
-    (rows, cols, vals), n = _assemble(("triplets", kind), V, T, weights, boundary, degenerate,
-                                      threads)
+    (rows, cols, vals), n = _assemble(("triplets", kind), V, T, weights, boundary_centres,
+                                      degenerate, threads)
     return Triplets(rows, cols, vals, (n, n))
 
 
+@renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
-def edge_weights(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
+def edge_weights(V, T=None, kind="primal", *, boundary_centres="circumcentric", weights=None,
                  degenerate="raise", threads=None) -> tuple[np.ndarray, np.ndarray]:
     """The unique edges of the mesh and their summed weights.
 
@@ -225,13 +232,15 @@ def edge_weights(V, T=None, kind="primal", *, boundary="circumcentric", weights=
     >>> edges[0].tolist(), float(w[0])
     ([0, 1], 0.25)
     """
-    return _assemble(("edge_weights", kind), V, T, weights, boundary, degenerate, threads)[0]
+    return _assemble(("edge_weights", kind), V, T, weights, boundary_centres, degenerate,
+                     threads)[0]
 
 
+@renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
-def element_contributions(V, T=None, kind="primal", *, boundary="circumcentric", weights=None,
-                          degenerate="raise", threads=None) -> np.ndarray:
+def element_contributions(V, T=None, kind="primal", *, boundary_centres="circumcentric",
+                          weights=None, degenerate="raise", threads=None) -> np.ndarray:
     """Per-element edge weights (each element's contribution to ``L``), for tets and
     triangles. ``tet_contributions`` is this function under its name until 0.1, kept for
     one release.
@@ -258,7 +267,8 @@ def element_contributions(V, T=None, kind="primal", *, boundary="circumcentric",
     >>> (tetlap.element_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12) + 0.0  # no -0.
     array([[1., 1., 1., 0., 0., 0.]])
     """
-    return _assemble(("contributions", kind), V, T, weights, boundary, degenerate, threads)[0]
+    return _assemble(("contributions", kind), V, T, weights, boundary_centres, degenerate,
+                     threads)[0]
 
 
 def _operators_skipping(V, T, laplacian, mass):

@@ -14,7 +14,7 @@ mode, not finite differences) in the same parallel, deterministic pass as the as
 Automatic-differentiation adapters built on :func:`vjp`: :mod:`tetlap.jax`
 (``jax.custom_vjp``) and :mod:`tetlap.torch` (``torch.autograd.Function``).
 
-Tets only (in R^3 or immersed in R^d); ``boundary="barycentric"`` is not differentiated
+Tets only (in R^3 or immersed in R^d); ``boundary_centres="barycentric"`` is not differentiated
 (its switch of dual vertices to centroids is piecewise) and raises
 :class:`tetlap.OptionError` when the dual or the circumcentric mass is involved.
 """
@@ -30,6 +30,7 @@ from . import _arrays, _core, _sparse
 from ._options import weights_used
 from .assembly import _options
 from ._docs import shared_docs
+from ._options import renamed
 from .errors import DtypeError, ShapeError
 
 __all__ = ["vjp", "dirichlet_energy", "mass_energy", "VJP"]
@@ -119,10 +120,12 @@ def _mesh(V, T, weights, kinds):
     return V, T, w
 
 
+@renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
 def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
-        boundary="circumcentric", weights=None, degenerate="raise", threads=None) -> VJP:
+        boundary_centres="circumcentric", weights=None, degenerate="raise",
+        threads=None) -> VJP:
     """The vector-Jacobian product of the Laplacian and the mass matrix.
 
     For cotangents ``dL`` (on ``L`` of ``kind``) and ``dM`` (on ``M`` of ``mass``), the
@@ -164,7 +167,7 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
 
     {raises}
     tetlap.OptionError
-        ``boundary="barycentric"`` with the dual or the circumcentric mass (not
+        ``boundary_centres="barycentric"`` with the dual or the circumcentric mass (not
         differentiated).
 
     Notes
@@ -192,7 +195,8 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     dl = _laplacian_cotangent(dL, n, m)
     dm = _mass_cotangent(dM, n)
     dV, dweights, value = _core.vjp(V, T, {"laplacian": (kind, dl), "mass": (mass, dm)},
-                                    weights=w, options=_options(boundary, degenerate, threads))
+                                    weights=w, options=_options(boundary_centres, degenerate,
+                                                                 threads))
     return VJP(dV, dweights, float(value))
 
 
@@ -220,9 +224,10 @@ def _energy(V, T, f, lap, mass, weights, boundary, degenerate, threads, return_w
     return float(value), dV
 
 
+@renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
-def dirichlet_energy(V, T, f, kind="primal", *, boundary="circumcentric", weights=None,
+def dirichlet_energy(V, T, f, kind="primal", *, boundary_centres="circumcentric", weights=None,
                      degenerate="raise", threads=None, return_weights_gradient=False):
     """The Dirichlet energy ``E = -f^T L f`` and its gradient with respect to ``V``.
 
@@ -254,7 +259,7 @@ def dirichlet_energy(V, T, f, kind="primal", *, boundary="circumcentric", weight
 
     {raises}
     tetlap.OptionError
-        ``boundary="barycentric"`` with the dual (not differentiated).
+        ``boundary_centres="barycentric"`` with the dual (not differentiated).
 
     Examples
     --------
@@ -276,14 +281,16 @@ def dirichlet_energy(V, T, f, kind="primal", *, boundary="circumcentric", weight
     >>> bool(abs(fd - dE[i, 2]) < 1e-7 * abs(dE).max())
     True
     """
-    return _energy(V, T, f, kind, None, weights, boundary, degenerate, threads,
+    return _energy(V, T, f, kind, None, weights, boundary_centres, degenerate, threads,
                    return_weights_gradient)
 
 
+@renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
-def mass_energy(V, T, f, kind="barycentric", *, boundary="circumcentric", weights=None,
-                degenerate="raise", threads=None, return_weights_gradient=False):
+def mass_energy(V, T, f, kind="barycentric", *, boundary_centres="circumcentric",
+                weights=None, degenerate="raise", threads=None,
+                return_weights_gradient=False):
     """The quadratic form ``E = f^T M f`` of a mass matrix and its gradient with respect
     to ``V``.
 
@@ -320,5 +327,5 @@ def mass_energy(V, T, f, kind="barycentric", *, boundary="circumcentric", weight
     >>> round(E, 12), bool(np.allclose(dE[13], 0))  # vertex 13: the cube's center
     (1.0, True)
     """
-    return _energy(V, T, f, None, kind, weights, boundary, degenerate, threads,
+    return _energy(V, T, f, None, kind, weights, boundary_centres, degenerate, threads,
                    return_weights_gradient)

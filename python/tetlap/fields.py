@@ -34,8 +34,9 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from . import _arrays, _core, _options, analysis, assembly
+from ._float_range import frame_exponent
 from .solve import factorize
-from .errors import DtypeError, NonFiniteError, OptionError, ShapeError, SolveError
+from .errors import DtypeError, NonFiniteError, OptionError, ShapeError, SolveError, TetlapError
 
 __all__ = ["harmonic", "Harmonic", "RANGE_RTOL", "maximum_principle"]
 
@@ -103,7 +104,9 @@ def maximum_principle(L, fixed: np.ndarray, used: np.ndarray) -> tuple[sp.csr_ar
     """``(L', proved, reason)``: ``L`` with the rounding of zero weights removed (weights in
     ``[-NEGATIVE_TOL max|w|, 0)`` set to 0, the diagonal the negated sum of the
     off-diagonals), and whether the conditions of the module's proof hold for ``L'`` with
-    the free vertices ``used & ~fixed`` (masks ``(n,)``).
+    the free vertices ``used & ~fixed`` (bool masks ``(n,)``). ``L`` (n, n) is a tetlap
+    Laplacian (``L[i, i] = -sum_j w_ij``); the stiffness sign ``-L`` is refused
+    (:class:`tetlap.OptionError`).
 
     >>> import tetlap, numpy as np
     >>> V, T = tetlap.meshes.cube(3)
@@ -111,12 +114,20 @@ def maximum_principle(L, fixed: np.ndarray, used: np.ndarray) -> tuple[sp.csr_ar
     >>> maximum_principle(tetlap.laplacian(V, T, "dual"), fixed, np.ones(len(V), bool))[1:]
     (True, 'every weight at a free vertex is >= 0 and every free vertex reaches a fixed one through positive weights')
     """
+    L = _arrays.laplacian(L)
+    n = L.shape[0]
+    return _maximum_principle(L, _arrays.vertex_mask(fixed, n, "fixed"),
+                              _arrays.vertex_mask(used, n, "used"))
+
+
+def _maximum_principle(L, fixed: np.ndarray, used: np.ndarray):
+    """:func:`maximum_principle` of an operator that tetlap assembled (not checked)."""
+    n = L.shape[0]
     A = sp.coo_array(L)
     off = A.row != A.col
     r, c, w = A.row[off], A.col[off], A.data[off].copy()
     scale = np.abs(w).max() if len(w) else 0.0
     w[(w < 0) & (w >= -analysis.NEGATIVE_TOL * scale)] = 0.0
-    n = L.shape[0]
     diag = -np.bincount(r, weights=w, minlength=n)
     clean = sp.csr_array((np.concatenate([w, diag]), (np.concatenate([r, np.arange(n)]),
                                                       np.concatenate([c, np.arange(n)]))),
@@ -166,9 +177,10 @@ def _out_of_range(x: np.ndarray, values: np.ndarray, free: np.ndarray) -> int:
     return int(((xf < lo - tol) | (xf > hi + tol)).sum())
 
 
+@_options.renamed(dual_boundary="boundary_centres")
 @_arrays.takes_mesh_object
 def harmonic(V, T=None, fixed=None, values=None, *, k: int = 1, laplacian="auto",
-             weights=None, dual_boundary="circumcentric", degenerate="raise",
+             weights=None, boundary_centres="circumcentric", degenerate="raise",
              threads=None) -> Harmonic:
     """The (k-)harmonic field with ``values`` on ``fixed`` vertices.
 
@@ -183,26 +195,33 @@ def harmonic(V, T=None, fixed=None, values=None, *, k: int = 1, laplacian="auto"
     fixed : (n,) bool mask or 1-D int array of distinct vertex indices
         The fixed vertices (at least one per connected component).
     values : (n_fixed,) or (n_fixed, c) array-like of real numbers
-        One row per fixed vertex, in the order of ``fixed`` (ascending for a mask); ``c``
-        columns give ``c`` fields at once (harmonic coordinates), one factorization.
+        One row per fixed vertex: ``values[i]`` is the value at ``fixed[i]``, in the order
+        given (ascending vertex order for a mask); ``c`` columns give ``c`` fields at once
+        (harmonic coordinates), one factorization.
     k : int >= 1, default 1
         The power of the Laplacian.
     laplacian : "auto", "primal", "dual" or float in [0, 1], default "auto"
         With ``k = 1``, ``"auto"`` takes the first operator for which the maximum principle
         is proved (module docs): the plain dual, else the weighted dual with
         :func:`tetlap.regular_weights` (tets), else the primal (then ``proved`` is False and
-        ``reason`` says why the dual failed). With ``k >= 2`` ``"auto"`` is the primal.
+        ``reason`` says why the others failed, including a mesh whose regular weights
+        :func:`tetlap.regular_weights` refuses, e.g. beyond the float64 range in its
+        units). With ``k >= 2`` ``"auto"`` is the primal.
         Any other kind is used as given, the proof checked for it.
     weights : (n,) array-like, optional
         Vertex weights of a weighted dual for an explicit ``laplacian``.
-    dual_boundary, degenerate, threads
-        As ``boundary``, ``degenerate`` and ``threads`` of :func:`tetlap.laplacian`.
+    boundary_centres, degenerate, threads
+        As for :func:`tetlap.laplacian` (``boundary_centres`` was ``dual_boundary`` until
+        0.1; that name still works, deprecated).
 
     Returns
     -------
     Harmonic
         ``field`` (n,) or (n, c); ``laplacian``, ``weights``, ``proved``,
-        ``out_of_range``, ``reason``. Vertices in no element get 0 and count nowhere.
+        ``out_of_range``, ``reason``. Vertices in no element get 0 and count nowhere. The
+        operators are assembled in the mesh scaled by a power of two to unit size (exact),
+        so that the field of a mesh scaled by ``2^j`` is bitwise the same and every scale
+        from 1e-150 to 1e150 computes (the biharmonic's mass left float64 beyond 1e100).
 
     Raises
     ------
@@ -237,19 +256,25 @@ def harmonic(V, T=None, fixed=None, values=None, *, k: int = 1, laplacian="auto"
     idx, vals = _fixed(fixed, values, n)
     fixed_mask = np.zeros(n, dtype=bool)
     fixed_mask[idx] = True
-    options = dict(boundary=dual_boundary, degenerate=degenerate, threads=threads)
+    options = dict(boundary_centres=boundary_centres, degenerate=degenerate, threads=threads)
+    in_use, T_used = _arrays.used_vertices(V, T)
     used = np.zeros(n, dtype=bool)
-    used[T.ravel()] = True
+    used[in_use] = True
     free = used & ~fixed_mask
+    # the operators of the mesh scaled to unit size by 2^-e (exact): the field and the
+    # proof do not depend on the scale, the operators' float64 range does
+    e = frame_exponent(V[in_use], T_used)
+    unit = np.ldexp(V, -e)
 
     def operator(kind, w=None):
-        return assembly.laplacian(V, T, kind, weights=w, **options)
+        w = None if w is None else np.ldexp(_arrays.vertex_weights(w, n), -2 * e)
+        return assembly.laplacian(unit, T, kind, weights=w, **options)
 
     _check_components(T, fixed_mask, free)
     L0 = operator("primal" if laplacian == "auto" else laplacian, weights)
     if k >= 2:
         kind = "primal" if laplacian == "auto" else laplacian
-        M = assembly.mass(V, T, "barycentric", **options).diagonal()
+        M = assembly.mass(unit, T, "barycentric", **options).diagonal()
         Minv = sp.diags_array(np.divide(1.0, M, out=np.zeros(n), where=M > 0))
         Q = -L0
         for _ in range(k - 1):
@@ -258,11 +283,11 @@ def harmonic(V, T=None, fixed=None, values=None, *, k: int = 1, laplacian="auto"
         return Harmonic(x, kind, weights, False, _out_of_range(x, vals, free),
                         f"no maximum principle is known for k = {k}")
     if laplacian != "auto":
-        clean, proved, reason = maximum_principle(L0, fixed_mask, used)
+        clean, proved, reason = _maximum_principle(L0, fixed_mask, used)
         x = _solve(clean, idx, vals, free)
         w = None if weights is None else _arrays.vertex_weights(weights, n)
         return Harmonic(x, laplacian, w, proved, _out_of_range(x, vals, free), reason)
-    clean, proved, reason = maximum_principle(operator("dual"), fixed_mask, used)
+    clean, proved, reason = _maximum_principle(operator("dual"), fixed_mask, used)
     if proved:
         x = _solve(clean, idx, vals, free)
         return Harmonic(x, "dual", None, True, _out_of_range(x, vals, free), reason)
@@ -270,9 +295,15 @@ def harmonic(V, T=None, fixed=None, values=None, *, k: int = 1, laplacian="auto"
     if T.shape[1] == 4 and V.shape[1] == 3:
         from .regular import regular_weights
 
-        r = regular_weights(V, T, threads=threads)
-        if np.any(r.weights != 0):   # "not regular" gives w = 0: the plain dual
-            wclean, wproved, wreason = maximum_principle(operator("dual", r.weights),
+        try:
+            r = regular_weights(V, T, threads=threads)
+        except TetlapError as refused:   # the mesh's weights beyond float64, ...
+            r = None
+            why.append(f"regular_weights: {refused}")
+        if r is None:
+            pass
+        elif np.any(r.weights != 0):   # "not regular" gives w = 0: the plain dual
+            wclean, wproved, wreason = _maximum_principle(operator("dual", r.weights),
                                                          fixed_mask, used)
             if wproved:
                 x = _solve(wclean, idx, vals, free)
@@ -282,7 +313,7 @@ def harmonic(V, T=None, fixed=None, values=None, *, k: int = 1, laplacian="auto"
             why.append(f"weighted dual ({r.status}): {wreason}")
         else:
             why.append(f"regular_weights: {r.status}")
-    clean, proved, reason = maximum_principle(L0, fixed_mask, used)
+    clean, proved, reason = _maximum_principle(L0, fixed_mask, used)
     x = _solve(clean, idx, vals, free)
     text = ("no operator with the proof's conditions was found (" + "; ".join(why)
             + f"); primal: {reason}")

@@ -36,6 +36,7 @@ except ImportError as e:  # pragma: no cover - exercised only without the extra
     raise ImportError(f"tetlap.jax needs jax: {_extras.hint('jax')}") from e
 
 from . import _adapters
+from ._options import renamed
 
 __all__ = ["edges", "operators", "edge_weights", "mass", "laplacian"]
 
@@ -94,8 +95,9 @@ def _call(V, T, kind, mass_kind, weights, boundary, degenerate, threads):
     return _function(spec)(V, omega)
 
 
+@renamed(boundary="boundary_centres")
 def operators(V, T, kind="primal", mass="barycentric", *, weights=None,
-              boundary="circumcentric", degenerate="raise", threads=None):
+              boundary_centres="circumcentric", degenerate="raise", threads=None):
     """Edge weights and lumped masses, differentiable with respect to ``V`` and
     ``weights``.
 
@@ -109,8 +111,9 @@ def operators(V, T, kind="primal", mass="barycentric", *, weights=None,
         A lumped mass, as for :func:`tetlap.mass`.
     weights : (n,) array, optional
         Vertex weights of a weighted dual (differentiable).
-    boundary, degenerate, threads
-        As for :func:`tetlap.laplacian`.
+    boundary_centres, degenerate, threads
+        As for :func:`tetlap.laplacian` (``boundary_centres`` was ``boundary`` until 0.1;
+        that name still works, deprecated).
 
     Returns
     -------
@@ -119,22 +122,25 @@ def operators(V, T, kind="primal", mass="barycentric", *, weights=None,
     m : (n,) array
         The diagonal of ``M``.
     """
-    return _call(V, T, kind, mass, weights, boundary, degenerate, threads)
+    return _call(V, T, kind, mass, weights, boundary_centres, degenerate, threads)
 
 
-def edge_weights(V, T, kind="primal", *, weights=None, boundary="circumcentric",
+@renamed(boundary="boundary_centres")
+def edge_weights(V, T, kind="primal", *, weights=None, boundary_centres="circumcentric",
                  degenerate="raise", threads=None):
     """The summed edge weights ``(E,)`` on the edges of :func:`edges` (differentiable)."""
-    return _call(V, T, kind, None, weights, boundary, degenerate, threads)[0]
+    return _call(V, T, kind, None, weights, boundary_centres, degenerate, threads)[0]
 
 
-def mass(V, T, kind="barycentric", *, weights=None, boundary="circumcentric",
+@renamed(boundary="boundary_centres")
+def mass(V, T, kind="barycentric", *, weights=None, boundary_centres="circumcentric",
          degenerate="raise", threads=None):
     """The lumped mass diagonal ``(n,)`` (differentiable)."""
-    return _call(V, T, None, kind, weights, boundary, degenerate, threads)[1]
+    return _call(V, T, None, kind, weights, boundary_centres, degenerate, threads)[1]
 
 
-def laplacian(V, T, kind="primal", *, weights=None, boundary="circumcentric",
+@renamed(boundary="boundary_centres")
+def laplacian(V, T, kind="primal", *, weights=None, boundary_centres="circumcentric",
               degenerate="raise", threads=None):
     """The Laplacian as a ``jax.experimental.sparse.BCOO`` (n, n) matrix (differentiable
     in its values): ``L[i, j] = w_ij``, ``L[i, i] = -sum_j w_ij``, paper Eq. 1.
@@ -144,8 +150,8 @@ def laplacian(V, T, kind="primal", *, weights=None, boundary="circumcentric",
     V = jnp.asarray(V)
     n = V.shape[0]
     E = edges(T)
-    w = edge_weights(V, T, kind, weights=weights, boundary=boundary, degenerate=degenerate,
-                     threads=threads)
+    w = edge_weights(V, T, kind, weights=weights, boundary_centres=boundary_centres,
+                     degenerate=degenerate, threads=threads)
     diag = -(jax.ops.segment_sum(w, E[:, 0], n) + jax.ops.segment_sum(w, E[:, 1], n))
     entries = _adapters.laplacian_entries(E, n)
     return jsparse.BCOO((jnp.concatenate([w, w, diag]), jnp.asarray(entries)), shape=(n, n))

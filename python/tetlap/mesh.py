@@ -8,7 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
-from ._options import weights_used
+from ._options import renamed, weights_used
 from .assembly import _options
 from .errors import ShapeError
 
@@ -40,11 +40,13 @@ class Mesh:
         Vertex positions (see :func:`tetlap.laplacian`).
     T : (m, 4) or (m, 3) array-like of integers, optional
         Tets or triangles, any orientation; leave it out to pass a mesh object as ``V``.
-    boundary, weights, degenerate, threads
-        As for :func:`tetlap.laplacian`; they apply to every operator of this mesh. With
-        ``weights``, a request that does not depend on them (the primal Laplacian, a mass
-        other than the circumcentric, alone) is refused with :class:`tetlap.OptionError`,
-        as :func:`tetlap.laplacian` refuses ``weights=`` with the primal.
+    boundary_centres, weights, degenerate, threads
+        As for :func:`tetlap.laplacian`; they apply to every operator of this mesh
+        (``boundary_centres`` was ``boundary`` until 0.1; that name still works,
+        deprecated). With ``weights``, a request that does not depend on them (the primal
+        Laplacian, a mass other than the circumcentric, alone) is refused with
+        :class:`tetlap.OptionError`, as :func:`tetlap.laplacian` refuses ``weights=`` with
+        the primal.
 
     Notes
     -----
@@ -67,14 +69,15 @@ class Mesh:
     0
     """
 
+    @renamed(boundary="boundary_centres")
     @_arrays.takes_mesh_object
-    def __init__(self, V, T=None, *, boundary="circumcentric", weights=None,
+    def __init__(self, V, T=None, *, boundary_centres="circumcentric", weights=None,
                  degenerate="raise", threads=None) -> None:
         V, T = _arrays.mesh(V, T)
         V, T = _arrays.points(V), _arrays.elements(T)
         w = _arrays.vertex_weights(weights, V.shape[0])
         self._core = _core.Mesh(V, T, weights=w,
-                                options=_options(boundary, degenerate, threads))
+                                options=_options(boundary_centres, degenerate, threads))
         self._weighted = w is not None
         self._n, self._dim = V.shape
         indices, indptr = self._core.pattern()

@@ -31,6 +31,7 @@ except ImportError as e:  # pragma: no cover - exercised only without the extra
     raise ImportError(f"tetlap.torch needs torch: {_extras.hint('torch')}") from e
 
 from . import _adapters
+from ._options import renamed
 
 __all__ = ["edges", "operators", "edge_weights", "mass", "laplacian"]
 
@@ -77,27 +78,31 @@ def _call(V, T, kind, mass_kind, weights, boundary, degenerate, threads):
     return _Operators.apply(V, omega, spec)
 
 
+@renamed(boundary="boundary_centres")
 def operators(V, T, kind="primal", mass="barycentric", *, weights=None,
-              boundary="circumcentric", degenerate="raise", threads=None):
+              boundary_centres="circumcentric", degenerate="raise", threads=None):
     """Edge weights ``w`` (E,) on the edges of :func:`edges` and the lumped mass
     diagonal ``m`` (n,), differentiable with respect to ``V`` (n, d) and ``weights``
     (n,); see :func:`tetlap.jax.operators` for the parameters."""
-    return _call(V, T, kind, mass, weights, boundary, degenerate, threads)
+    return _call(V, T, kind, mass, weights, boundary_centres, degenerate, threads)
 
 
-def edge_weights(V, T, kind="primal", *, weights=None, boundary="circumcentric",
+@renamed(boundary="boundary_centres")
+def edge_weights(V, T, kind="primal", *, weights=None, boundary_centres="circumcentric",
                  degenerate="raise", threads=None):
     """The summed edge weights ``(E,)`` on the edges of :func:`edges` (differentiable)."""
-    return _call(V, T, kind, None, weights, boundary, degenerate, threads)[0]
+    return _call(V, T, kind, None, weights, boundary_centres, degenerate, threads)[0]
 
 
-def mass(V, T, kind="barycentric", *, weights=None, boundary="circumcentric",
+@renamed(boundary="boundary_centres")
+def mass(V, T, kind="barycentric", *, weights=None, boundary_centres="circumcentric",
          degenerate="raise", threads=None):
     """The lumped mass diagonal ``(n,)`` (differentiable)."""
-    return _call(V, T, None, kind, weights, boundary, degenerate, threads)[1]
+    return _call(V, T, None, kind, weights, boundary_centres, degenerate, threads)[1]
 
 
-def laplacian(V, T, kind="primal", *, weights=None, boundary="circumcentric",
+@renamed(boundary="boundary_centres")
+def laplacian(V, T, kind="primal", *, weights=None, boundary_centres="circumcentric",
               degenerate="raise", threads=None):
     """The Laplacian as a sparse COO ``torch`` tensor (n, n), differentiable in its values:
     ``L[i, j] = w_ij``, ``L[i, i] = -sum_j w_ij`` (paper Eq. 1)."""
@@ -105,8 +110,8 @@ def laplacian(V, T, kind="primal", *, weights=None, boundary="circumcentric",
     n = V.shape[0]
     E_host = edges(T)
     E = torch.as_tensor(E_host)
-    w = edge_weights(V, T, kind, weights=weights, boundary=boundary, degenerate=degenerate,
-                     threads=threads)
+    w = edge_weights(V, T, kind, weights=weights, boundary_centres=boundary_centres,
+                     degenerate=degenerate, threads=threads)
     diag = -(torch.zeros(n, dtype=w.dtype).index_add(0, E[:, 0], w).index_add(0, E[:, 1], w))
     entries = torch.as_tensor(np.ascontiguousarray(_adapters.laplacian_entries(E_host, n).T))
     # the indices come from validated tets: in range by construction

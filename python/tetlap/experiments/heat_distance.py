@@ -57,7 +57,7 @@ def run(out) -> None:
         else:
             V, T = meshes.cube(size, jitter=0.2, seed=out.seed)
         for boundary in BOUNDARIES:
-            heat = HeatDistance(V, T, boundary=boundary)
+            heat = HeatDistance(V, T, boundary_condition=boundary)
             for where, s in sources(V, family).items():
                 exact = np.linalg.norm(V - V[s], axis=1)
                 d = heat.distance(s)

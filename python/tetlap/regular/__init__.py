@@ -98,7 +98,7 @@ class Settings:
     """The options of :func:`regular_weights`, checked (:meth:`of`)."""
 
     target_margin: float
-    boundary: str
+    boundary_weights: str
     mass_floor: float | None
     max_weight: float
     max_iterations: int
@@ -110,8 +110,9 @@ class Settings:
         """The settings, or an :class:`tetlap.OptionError` naming the first bad option."""
         o = cls(**options)
         _options.positive(o.target_margin, "target_margin")
-        if o.boundary not in ("free", "zero"):
-            raise OptionError(f'boundary must be "free" or "zero", got {o.boundary!r}')
+        if o.boundary_weights not in ("free", "zero"):
+            raise OptionError(f'boundary_weights must be "free" or "zero", got '
+                              f'{o.boundary_weights!r}')
         if o.mass_floor is not None:
             _options.tolerance(o.mass_floor, "mass_floor")
         _options.positive(o.max_weight, "max_weight")
@@ -179,7 +180,9 @@ def _dual_report(V, T, w, on_boundary, threads, semidefinite: bool,
     return DualReport(report.n_negative_interior, M.diagonal(), report.nsd, report.nsd_method)
 
 
-def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str = "free",
+@_options.renamed(boundary="boundary_weights")
+def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN,
+                    boundary_weights: str = "free",
                     mass_floor: float | None = 0.1, max_weight: float = 10.0,
                     max_iterations: int = MAX_ITERATIONS,
                     time_limit: float | None = None,
@@ -193,9 +196,9 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
     target_margin : float > 0, the face margin (dual-edge length over face size) the weights
         aim for on the faces they repair. Faces that are strictly locally Delaunay keep at
         least ``min(half their plain margin, target_margin)``.
-    boundary : ``"free"`` (default: boundary vertices get weights like any other) or
-        ``"zero"`` (boundary weights fixed at 0, which can make a regular mesh
-        non-regular).
+    boundary_weights : ``"free"`` (default: boundary vertices get weights like any other)
+        or ``"zero"`` (boundary weights fixed at 0, which can make a regular mesh
+        non-regular). (Called ``boundary`` until 0.1; that name still works, deprecated.)
     mass_floor : float in [0, 1) or None, keep every weighted circumcentric mass above
         ``mass_floor`` times its plain value where that is positive (0: only positive). A
         soft goal: the vertices where it fails are reported. None: skip the mass step.
@@ -302,7 +305,7 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN, boundary: str
     True
     """
     start = time.perf_counter()
-    settings = Settings.of(target_margin=target_margin, boundary=boundary,
+    settings = Settings.of(target_margin=target_margin, boundary_weights=boundary_weights,
                            mass_floor=mass_floor, max_weight=max_weight,
                            max_iterations=max_iterations, time_limit=time_limit,
                            threads=threads)
@@ -399,7 +402,7 @@ def _find(V, T, cond: Conditions, settings: Settings, budget: Budget, d: Decisio
     scale = _vertex_scale(V, T)
     problem = Problem.of(cond, scale)
     sign = d.plain.sign[cond.face[problem.rows]]
-    allowed = (np.ones(len(V), dtype=bool) if settings.boundary == "free"
+    allowed = (np.ones(len(V), dtype=bool) if settings.boundary_weights == "free"
                else ~cond.on_boundary)
     hi = np.where(allowed, float(settings.max_weight), 0.0)
     lo = -hi

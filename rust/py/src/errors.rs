@@ -159,7 +159,7 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
         Error::Unsupported { option, element } => {
             let option = match option {
                 Feature::VertexWeights => "`weights`",
-                Feature::BarycentricBoundary => "boundary=\"barycentric\"",
+                Feature::BarycentricBoundary => "boundary_centres=\"barycentric\"",
             };
             raise(py, &c.option, format!("{option} applies to tet meshes only, not {element} meshes"), &[])
         }
@@ -167,8 +167,8 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             raise(py, &c.non_finite, e.to_string(), &[("index", i(index))])
         }
         Error::NotDifferentiable { what } => {
-            let what = what.replace("Boundary::Barycentric", "boundary=\"barycentric\"");
-            let what = what.replace("Boundary::Circumcentric", "boundary=\"circumcentric\"");
+            let what = what.replace("Boundary::Barycentric", "boundary_centres=\"barycentric\"");
+            let what = what.replace("Boundary::Circumcentric", "boundary_centres=\"circumcentric\"");
             raise(py, &c.option, format!("derivatives of {what} are not available"), &[])
         }
         Error::Cancelled => PyKeyboardInterrupt::new_err("cancelled"),

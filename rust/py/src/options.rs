@@ -105,7 +105,7 @@ impl<'a, 'py> FromPyObject<'a, 'py> for OptionsArg {
             match string(key.as_borrowed()).as_deref() {
                 Some("boundary") => {
                     let choices = [("circumcentric", Boundary::Circumcentric), ("barycentric", Boundary::Barycentric)];
-                    opts.boundary = named(value, "boundary treatment of the dual", &choices)?;
+                    opts.boundary = named(value, "boundary_centres", &choices)?;
                 }
                 Some("degenerate") => {
                     opts.degenerate = named(value, "degenerate", &[("raise", Degenerate::Raise), ("skip", Degenerate::Skip)])?;
