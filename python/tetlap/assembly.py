@@ -15,6 +15,7 @@ import scipy.sparse as sp
 from . import _arrays, _core, _sparse
 from ._options import weights_used
 from ._docs import shared_docs
+from ._names import public_dir
 
 __all__ = [
     "laplacian",
@@ -26,6 +27,7 @@ __all__ = [
     "tet_contributions",
     "Triplets",
 ]
+__dir__ = public_dir(globals())
 
 
 def _options(boundary, degenerate, threads) -> dict:

@@ -31,8 +31,10 @@ from ._options import weights_used
 from .assembly import _options
 from ._docs import shared_docs
 from .errors import DtypeError, ShapeError
+from ._names import public_dir
 
 __all__ = ["vjp", "dirichlet_energy", "mass_energy", "VJP"]
+__dir__ = public_dir(globals())
 
 
 class VJP(NamedTuple):

@@ -30,8 +30,10 @@ import sys
 import numpy as np
 
 from . import _options, assembly
+from ._names import public_dir
 
 __all__ = ["assemble", "load_share", "dirichlet", "eigs", "boundary_rows", "info", "to_scipy"]
+__dir__ = public_dir(globals())
 
 
 # Debian installs petsc4py / slepc4py under PETSc's and SLEPc's own prefixes; its .pth

@@ -37,8 +37,10 @@ from . import _arrays, _core, _options, assembly, calculus
 from ._float_range import unit_scale
 from .solve import factorize
 from .errors import DegenerateElementError, IndexRangeError, OptionError, ShapeError
+from ._names import public_dir
 
 __all__ = ["HeatDistance", "heat_distance", "BOUNDARY_CONDITIONS"]
+__dir__ = public_dir(globals())
 
 #: The boundary conditions of the heat step (Crane et al. 2013, Sec. 3.3).
 BOUNDARY_CONDITIONS = ("neumann", "dirichlet", "average")

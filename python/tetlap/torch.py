@@ -31,8 +31,10 @@ except ImportError as e:  # pragma: no cover - exercised only without the extra
     raise ImportError(f"tetlap.torch needs torch: {_extras.hint('torch')}") from e
 
 from . import _adapters
+from ._names import public_dir
 
 __all__ = ["edges", "operators", "edge_weights", "mass", "laplacian"]
+__dir__ = public_dir(globals())
 
 
 def edges(T) -> np.ndarray:

@@ -22,8 +22,10 @@ from typing import NamedTuple
 from .. import _options
 from ..errors import OptionError
 from ._output import Output, folder
+from .._names import public_dir
 
 __all__ = ["EXPERIMENTS", "NAMES", "CORPUS_NAMES", "Experiment", "Output", "folder", "run"]
+__dir__ = public_dir(globals())
 
 
 class Experiment(NamedTuple):

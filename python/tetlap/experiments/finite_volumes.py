@@ -37,6 +37,11 @@ from ..cells import cell_laplacian
 from ..dual import dual_geometry
 from ..regular import regular_weights
 from ._plot import log_ticks
+from .._names import public_dir
+
+__all__ = ["SCHEMES", "exact", "gradient", "laplacian", "vertex_dual", "cell_neumann",
+           "cell_dirichlet", "cell_neumann_regular", "run"]
+__dir__ = public_dir(globals())
 
 SCHEMES = ("vertex dual, Dirichlet", "cell, Neumann", "cell, Dirichlet faces",
            "cell, Neumann, regular weights")

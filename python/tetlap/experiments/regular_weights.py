@@ -34,6 +34,11 @@ from ..properties import check
 from ..regular import regular_weights
 from .._progress import bar as progress
 from ._corpus import mesh_files
+from .._names import public_dir
+
+__all__ = ["QUICK_CORPUS", "NSD_MAX_VERTICES", "MAX_TETS", "jittered_ball", "bcc",
+           "fit_primal", "shell_errors", "run"]
+__dir__ = public_dir(globals())
 
 #: The corpus meshes of the quick run: small ones, two of them named in issue 16 (the full
 #: run has all 41, with the fish and the microstructure).

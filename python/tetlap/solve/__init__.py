@@ -42,6 +42,7 @@ from ._eigs import eigs
 from .factor import PIVOT_RTOL, Factor, factorize
 from .info import SolveInfo
 from ._neumann import neumann, neumann_primal_kkt
+from .._names import public_dir
 
 __all__ = [
     "dirichlet",
@@ -59,3 +60,4 @@ __all__ = [
     "PIVOT_RTOL",
     "SOLVERS",
 ]
+__dir__ = public_dir(globals())

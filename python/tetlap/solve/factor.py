@@ -31,8 +31,10 @@ from .._progress import Stages
 from ..errors import DtypeError, OptionError, ShapeError, SolveError
 from . import _checks
 from .info import SolveInfo
+from .._names import public_dir
 
 __all__ = ["factorize", "Factor", "ORDERINGS", "nested_dissection"]
+__dir__ = public_dir(globals())
 
 #: Fill-reducing orderings of :func:`factorize`.
 ORDERINGS = ("auto", "nd", "amd")
