@@ -115,7 +115,7 @@ class HeatDistance:
         solve per call. The default is ``"neumann"`` for its cost: on balls it meets the
         accuracy targets with two factorizations, and ``"average"`` is slightly more
         accurate (mean error 0.80% against 0.97% of the largest distance from a boundary
-        vertex of ``ball(30000)``, the same from the centre: EXPERIMENTS.md). Pure
+        vertex of ``ball(30000)``, the same from the centre: :doc:`/project/experiments`). Pure
         ``"dirichlet"`` is poor from boundary sources (about 20%).
     mass : {"barycentric", "circumcentric", "mixed"}, default "barycentric"
         The lumped mass of the heat step.

@@ -1,5 +1,5 @@
 """``finite-volumes``: a Poisson problem on the unit ball solved by the two finite-volume
-schemes of the orthogonal dual, against the exact solution (issue 31).
+schemes of the orthogonal dual, against the exact solution.
 
 The exact solution ``u = x^4 + y^2 z^2 - x y z + z`` (``Laplace(u) = 12 x^2 + 2 y^2 + 2
 z^2``; every scheme here reproduces linear functions, and the vertex dual even

@@ -1,4 +1,4 @@
-"""``improve``: moving interior vertices to remove negative dual weights (issue 17).
+"""``improve``: moving interior vertices to remove negative dual weights.
 
 Two parts, both with :func:`tetlap.improve.improve` (L-BFGS-B on a penalty of the
 interior dual weights below a margin, a volume barrier and a small displacement term; the

@@ -338,7 +338,7 @@ def factorize(A, *, solver: str = "auto", ordering="auto", progress=None) -> Fac
     Factor
         ``.solve(b)``, ``.refactor(A)``, ``.inertia()``, ``.info``.
 
-    Cost: README, "Solvers" (the nested dissection and the ``LL^T``, each further solve
+    Cost: :doc:`/guide/solving` (the nested dissection and the ``LL^T``, each further solve
     and the factor's memory on a 974k-tet ball, as multiples of one assembly, with the
     command to rerun). Ctrl-C is answered
     within 0.1 s; an interrupted factorization finishes in the background and is dropped.
