@@ -20,11 +20,10 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 import tetlap
 
 # %%
-# The mesh: ``pbd_armadillo_4k`` from the corpus folder ``$TETLAP_MESHES`` (by default
-# ``../shared/data/meshes`` beside the repository), or a built-in ball when it is missing.
+# The mesh: ``pbd_armadillo_4k`` from the real-mesh corpus in ``$TETLAP_MESHES`` (by
+# default ``../shared/data/meshes`` from the repository's root), or a built-in ball when
+# the corpus is not there.
 folder = pathlib.Path(os.environ.get("TETLAP_MESHES", "../shared/data/meshes"))
-if not folder.is_absolute():
-    folder = pathlib.Path(__file__).resolve().parents[1] / folder
 path = folder / "pbd_armadillo_4k.ele"
 if path.is_file():
     V, T = tetlap.io.read(path)
