@@ -159,6 +159,10 @@ def test_a_private_path_is_caught():
 #: The jobs of the user guide, one page each.
 JOBS = ["getting-started", "which-operator", "solving", "eigenmodes", "fields",
         "finite-volumes", "media", "derivatives", "accuracy", "scale", "cli"]
+#: A page named in plain text, which the HTML documentation cannot follow: a docstring
+#: points at a page of the site with ``:doc:`` instead.
+PLAIN_POINTER = re.compile(r"README|BENCHMARKS\.md|SCALING\.md|EXPERIMENTS\.md|CHANGELOG")
+DOC_ROLE = re.compile(r":doc:`(?:[^`<]*<)?([^`>]+)>?`")
 ROLE = re.compile(r"\{(doc|func|class|mod|data)\}`(?:[^`<]*<)?([^`>]+)>?`")
 
 
@@ -173,11 +177,16 @@ def test_the_guide_has_a_page_per_job_in_its_table_of_contents():
         assert "{doc}`../api/" in text or "{func}`" in text, f"{job}: no link to the API"
 
 
-@pytest.mark.parametrize("page", sorted(DOCS.glob("*.md")) + sorted(DOCS.glob("*/*.md")),
+@pytest.mark.parametrize("page", sorted(DOCS.glob("*.md")) + sorted(DOCS.glob("*/*.md"))
+                         + sorted(DOCS.glob("*/*.rst")),
                          ids=lambda p: str(p.relative_to(DOCS)))
 def test_every_link_of_a_page_resolves(page):
     """``{doc}`` links name a page or a gallery example; ``{func}``, ``{class}``, ``{mod}``
-    name an entry of the reference."""
+    name an entry of the reference; no page names a file (README, SCALING.md) in plain
+    text where a page of the site is meant (an included file is the page)."""
+    text = "\n".join(line for line in page.read_text().splitlines()
+                     if not line.startswith("```{include}"))
+    assert not PLAIN_POINTER.findall(text), f"{page.name}: a file named where a page is meant"
     reference = documented()
     examples = {p.stem for p in (ROOT / "examples").glob("plot_*.py")}
     for role, target in ROLE.findall(page.read_text()):
@@ -209,10 +218,6 @@ def test_every_example_has_a_title_a_paragraph_and_one_figure():
 
 # ---- the docstrings' pointers ---------------------------------------------------------------
 
-#: A page named in plain text, which the HTML documentation cannot follow: a docstring
-#: points at a page of the site with ``:doc:`` instead.
-PLAIN_POINTER = re.compile(r"README|BENCHMARKS\.md|SCALING\.md|EXPERIMENTS\.md|CHANGELOG")
-DOC_ROLE = re.compile(r":doc:`(?:[^`<]*<)?([^`>]+)>?`")
 
 
 def rendered_docstrings() -> dict[str, str]:
