@@ -729,7 +729,8 @@ def test_io_is_a_package_split_by_concept_with_the_same_public_names():
                 "DualCells": "_dual_cells"}
     for name in tetlap.io.__all__:
         assert getattr(tetlap.io, name).__module__ == f"tetlap.io.{concepts[name]}", name
-    lower = {"_arrays", "_extras", "_meshobj", "errors", "dual", "_dual_faces", "_float_range"}
+    lower = {"_arrays", "_extras", "_meshobj", "errors", "dual", "_dual_faces", "_float_range",
+             "_names"}
     for path in sorted(folder.glob("*.py")):
         text = path.read_text()
         assert len(text.splitlines()) <= 400, path.name

@@ -66,8 +66,8 @@ weights : (n,) array-like of real numbers, optional
     mixed or FEM mass, alone) refuses them with :class:`tetlap.OptionError`.
 degenerate : {"raise", "skip"}, default "raise"
     A zero-volume element (exactly flat), or one whose values leave the float64 range
-    (a needle or a flat tet whose exact weights or masses overflow; see README
-    "Accuracy"), raises :class:`tetlap.DegenerateElementError` naming it, or with
+    (a needle or a flat tet whose exact weights or masses overflow; see
+    :doc:`/guide/accuracy`), raises :class:`tetlap.DegenerateElementError` naming it, or with
     ``"skip"`` contributes nothing to what it fails (its edges stay in the pattern).
 threads : int, optional
     Worker threads, from 1 to ``tetlap.MAX_THREADS`` (four per core); ``None`` uses

@@ -24,8 +24,10 @@ import scipy.sparse as sp
 from . import _arrays, _core, _options, _sparse, assembly, diagnostics
 from ._interrupt import interruptible
 from .errors import OptionError, ShapeError
+from ._names import public_dir
 
 __all__ = ["check", "Report", "negative_weights", "lumped_masses", "NEGATIVE_TOL", "TOL", "NSD_RTOL", "DENSE_NSD_MAX", "SPARSE_NSD_MAX"]
+__dir__ = public_dir(globals())
 
 #: A weight counts as negative when ``w < -NEGATIVE_TOL * max|w|``: weights that are zero
 #: up to rounding (right dihedral angles of a Kuhn grid) do not count.

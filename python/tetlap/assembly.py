@@ -16,6 +16,7 @@ from . import _arrays, _core, _sparse
 from ._options import weights_used
 from ._docs import shared_docs
 from ._options import renamed
+from ._names import public_dir
 
 __all__ = [
     "laplacian",
@@ -27,6 +28,7 @@ __all__ = [
     "tet_contributions",
     "Triplets",
 ]
+__dir__ = public_dir(globals())
 
 
 def _options(boundary, degenerate, threads) -> dict:

@@ -31,6 +31,12 @@ from ._progress import bar
 from .info import report
 from .mesh import Mesh
 from .analysis import check
+from ._names import public_dir
+
+__all__ = ["SCHEMA_VERSION", "SIZES", "TETS_PER_POINT", "KINDS", "DEFAULT_CASES",
+           "delaunay", "shuffled", "ordered", "mesh", "numpy_primal", "floor", "time_mesh",
+           "document", "run"]
+__dir__ = public_dir(globals())
 
 #: The version of the layout of ``tetlap bench --json`` (:func:`document`), its first key;
 #: raised with every change of it or of the records' keys, each in the CHANGELOG. 1: one

@@ -32,6 +32,10 @@ import time
 import numpy as np
 
 from . import _options
+from ._names import public_dir
+
+__all__ = ["MESHES", "CASES", "make_mesh", "run_case", "run", "table"]
+__dir__ = public_dir(globals())
 
 #: The meshes of the bench: name -> how to make it.
 MESHES = {

@@ -27,8 +27,10 @@ from . import _arrays, _core
 from ._docs import shared_docs
 from ._float_range import LARGEST, SMALLEST, unit_scale
 from .errors import DegenerateElementError
+from ._names import public_dir
 
 __all__ = ["gradient", "divergence", "element_gradients"]
+__dir__ = public_dir(globals())
 
 
 @_arrays.takes_mesh_object

@@ -19,8 +19,10 @@ from . import _arrays, _core, analysis, diagnostics
 from ._docs import shared_docs
 from .dual import OUTSIDE_TOL, DualGeometry, dual_geometry
 from .errors import DegenerateElementError
+from ._names import public_dir
 
 __all__ = ["cell_laplacian", "CellReport", "ZERO_TOL"]
+__dir__ = public_dir(globals())
 
 #: A dual edge counts as zero-length when ``|dual_length| <= ZERO_TOL * r``, ``r`` the
 #: larger distance from its two centres to the face's first corner (2^-40, the core's

@@ -52,8 +52,10 @@ from . import _arrays, _core, diagnostics
 from ._docs import shared_docs
 from .dual import _Faces, _outward, dual_geometry
 from .errors import DegenerateElementError
+from ._names import public_dir
 
 __all__ = ["exterior_derivatives", "Derivatives", "hodge_stars", "Stars"]
+__dir__ = public_dir(globals())
 
 
 class Derivatives(NamedTuple):

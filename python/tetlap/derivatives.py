@@ -32,8 +32,10 @@ from .assembly import _options
 from ._docs import shared_docs
 from ._options import renamed
 from .errors import DtypeError, ShapeError
+from ._names import public_dir
 
 __all__ = ["vjp", "dirichlet_energy", "mass_energy", "VJP"]
+__dir__ = public_dir(globals())
 
 
 class VJP(NamedTuple):

@@ -25,6 +25,7 @@ import numbers
 import numpy as np
 
 from . import _arrays, _core, _meshobj, _options
+from ._names import public_dir
 
 __all__ = [
     "DELAUNAY_RTOL",
@@ -51,6 +52,7 @@ __all__ = [
     "face_normals",
     "summary",
 ]
+__dir__ = public_dir(globals())
 
 #: Relative tolerance of the Delaunay test: a point counts as inside a circumsphere only
 #: if the lifted determinant exceeds ``DELAUNAY_RTOL`` times its Hadamard bound, so

@@ -5,7 +5,7 @@ contiguous slice of the tets and the coordinates of the vertices that slice uses
 computes that share's operators with the same Rust core, and adds them into a distributed
 PETSc matrix (``MPIAIJ``, contiguous row ownership) with ``ADD_VALUES``. No rank holds the
 whole mesh or the whole matrix. Needs ``petsc4py`` (with MUMPS), ``slepc4py`` and
-``mpi4py``; see the README's third command. Debian's petsc4py and slepc4py are found
+``mpi4py``; see :doc:`/guide/scale`. Debian's petsc4py and slepc4py are found
 without ``PETSC_DIR`` / ``SLEPC_DIR`` (the newest ``/usr/lib/petscdir/petsc*/*-real``);
 every function that needs them raises a one-line ``ImportError`` saying whether a package
 is missing or installed but failing to import (and why).
@@ -30,8 +30,10 @@ import sys
 import numpy as np
 
 from . import _options, assembly
+from ._names import public_dir
 
 __all__ = ["assemble", "load_share", "dirichlet", "eigs", "boundary_rows", "info", "to_scipy"]
+__dir__ = public_dir(globals())
 
 
 # Debian installs petsc4py / slepc4py under PETSc's and SLEPc's own prefixes; its .pth

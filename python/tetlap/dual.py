@@ -28,8 +28,10 @@ from ._dual_faces import _FACES
 from ._dual_faces import outward as _outward  # noqa: F401 (cells, dec)
 from ._float_range import unit_scale
 from .errors import DegenerateElementError
+from ._names import public_dir
 
 __all__ = ["dual_geometry", "DualGeometry", "DualFaces", "OUTSIDE_TOL"]
+__dir__ = public_dir(globals())
 
 #: A centre counts as outside its tet when one of its barycentric coordinates is below
 #: ``-OUTSIDE_TOL`` (2^-40, the core's documented accuracy): a centre on a face or an edge

@@ -16,6 +16,8 @@ Example
 
 from __future__ import annotations
 
+from ._names import public_dir
+
 __all__ = [
     "TetlapError",
     "ShapeError",
@@ -31,6 +33,7 @@ __all__ = [
     "SolveError",
     "InternalError",
 ]
+__dir__ = public_dir(globals())
 
 
 class TetlapError(ValueError):

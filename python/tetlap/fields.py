@@ -37,8 +37,10 @@ from . import _arrays, _core, _options, analysis, assembly
 from ._float_range import frame_exponent
 from .solve import factorize
 from .errors import DtypeError, NonFiniteError, OptionError, ShapeError, SolveError, TetlapError
+from ._names import public_dir
 
 __all__ = ["harmonic", "Harmonic", "RANGE_RTOL", "maximum_principle"]
+__dir__ = public_dir(globals())
 
 #: A value counts as outside the range ``[lo, hi]`` of the fixed values (per column) when
 #: it is beyond it by more than ``RANGE_RTOL * max(hi - lo, |lo|, |hi|)``: the linear

@@ -60,9 +60,11 @@ from ._float_range import frame_exponent
 from ._progress import Stages
 from .solve import factorize
 from .errors import DegenerateElementError, IndexRangeError, OptionError, ShapeError, SolveError
+from ._names import public_dir
 
 __all__ = ["HeatDistance", "heat_distance", "BOUNDARY_CONDITIONS", "MASS_RESOLUTION",
            "LIMIT_ITERATIONS"]
+__dir__ = public_dir(globals())
 
 #: The boundary conditions of the heat step (Crane et al. 2013, Sec. 3.3).
 BOUNDARY_CONDITIONS = ("neumann", "dirichlet", "average")
@@ -199,7 +201,7 @@ class HeatDistance:
         solve per call. The default is ``"neumann"`` for its cost: on balls it meets the
         accuracy targets with two factorizations, and ``"average"`` is slightly more
         accurate (mean error 0.80% against 0.97% of the largest distance from a boundary
-        vertex of ``ball(30000)``, the same from the centre: EXPERIMENTS.md). Pure
+        vertex of ``ball(30000)``, the same from the centre: :doc:`/project/experiments`). Pure
         ``"dirichlet"`` is poor from boundary sources (about 20%). (Called ``boundary``
         until 0.1; that name still works, deprecated.)
     mass : {"barycentric", "circumcentric", "mixed"}, default "barycentric"

@@ -62,9 +62,11 @@ from . import _arrays, _options, assembly, derivatives, diagnostics
 from ._float_range import check_float_range, unit_scale
 from .errors import ShapeError
 from .analysis import negative_weights
+from ._names import public_dir
 
 __all__ = ["improve", "Improvement", "Objective", "keep_orientation",
            "fewest_negative_weights", "dual_statistics", "MAX_MARGIN", "MAX_WEIGHT"]
+__dir__ = public_dir(globals())
 
 #: Tets may lose this fraction of their quality before the barrier acts.
 R0 = 0.5

@@ -35,12 +35,14 @@ from ._progress import Stages
 from .errors import ShapeError, TetlapError
 from .analysis import NEGATIVE_TOL, _check, check, lumped_masses, negative_weights
 from .regular import RegularWeights, regular_weights
+from ._names import public_dir
 
 __all__ = ["report", "regular_summary", "plot", "plot_names", "PAIRS", "SCHEMA_VERSION",
            "REGULAR_MAX_TETS"]
+__dir__ = public_dir(globals())
 
 #: The version of the report's layout (its keys and their meaning), the first key of
-#: ``tetlap info --json``; raised with every change, each recorded in the CHANGELOG.
+#: ``tetlap info --json``; raised with every change, each noted in the :doc:`/project/changelog`.
 #: 1: the counts at the top level, ``negative_weight_fraction_interior``; 2: the counts
 #: under ``"mesh"``, ``negative_fraction_interior``, ``schema_version`` itself; 3:
 #: ``nsd_min_eigenvalue`` renamed ``nsd_min_eigenvalue_upper_bound`` (a witness's

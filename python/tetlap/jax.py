@@ -37,8 +37,10 @@ except ImportError as e:  # pragma: no cover - exercised only without the extra
 
 from . import _adapters
 from ._options import renamed
+from ._names import public_dir
 
 __all__ = ["edges", "operators", "edge_weights", "mass", "laplacian"]
+__dir__ = public_dir(globals())
 
 
 def edges(T) -> np.ndarray:

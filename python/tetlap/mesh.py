@@ -11,8 +11,10 @@ from . import _arrays, _core, _sparse
 from ._options import renamed, weights_used
 from .assembly import _options
 from .errors import ShapeError
+from ._names import public_dir
 
 __all__ = ["Mesh", "UpdateInfo"]
+__dir__ = public_dir(globals())
 
 
 class UpdateInfo(NamedTuple):

@@ -26,10 +26,12 @@ from . import _arrays, _extras, _options
 from ._progress import Stages
 from .diagnostics import signed_volumes
 from .errors import NonFiniteError, OptionError, ShapeError
+from ._names import public_dir
 
 __all__ = ["compact", "cube", "ball", "shell", "sphere3", "optimized_ball", "optimized_shell",
            "weighted_ball", "regular_triangulation", "single_tet", "orient", "MAX_CUBE",
            "MAX_POINTS", "MIN_H", "MAX_WEIGHT_SCALE"]
+__dir__ = public_dir(globals())
 
 #: The largest ``k`` of :func:`cube`: its ``6 k^3`` tets are within the core's limit
 #: (``2^30 - 1`` tets, 32-bit element-corner ids).

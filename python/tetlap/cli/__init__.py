@@ -29,8 +29,10 @@ from .. import __version__
 from ..errors import TetlapError
 from . import _output, _threads, assemble, bench, distributed_info, experiment, improve, info
 from . import geodesic
+from .._names import public_dir
 
 __all__ = ["main", "parser", "COMMANDS"]
+__dir__ = public_dir(globals())
 
 #: The commands, in the order of ``tetlap --help``.
 COMMANDS = (info, assemble, bench, experiment, improve, distributed_info,

@@ -7,6 +7,11 @@ import os
 import sys
 
 from . import _mesh, _paths, _threads
+from .._names import public_dir
+
+__all__ = ["NAME", "HELP", "DESCRIPTION", "arguments", "output_names", "kind", "check",
+           "check_laplacian", "run"]
+__dir__ = public_dir(globals())
 
 NAME = "assemble"
 HELP = "save L and M as scipy .npz files"

@@ -4,6 +4,10 @@
 from __future__ import annotations
 
 from . import _output
+from .._names import public_dir
+
+__all__ = ["NAME", "HELP", "DESCRIPTION", "arguments", "check", "run"]
+__dir__ = public_dir(globals())
 
 NAME = "distributed-info"
 HELP = "under mpirun: counts and checks with PETSc from .npy files"

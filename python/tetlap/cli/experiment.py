@@ -8,6 +8,10 @@ import textwrap
 
 from .. import _options, experiments
 from . import _output, _paths
+from .._names import public_dir
+
+__all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "arguments", "check", "run"]
+__dir__ = public_dir(globals())
 
 NAME = "experiment"
 HELP = "reproduce the paper's experiments"

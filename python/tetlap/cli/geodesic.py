@@ -11,6 +11,10 @@ import sys
 
 from .. import _options
 from . import _paths, _threads, assemble
+from .._names import public_dir
+
+__all__ = ["NAME", "HELP", "DESCRIPTION", "arguments", "check", "run"]
+__dir__ = public_dir(globals())
 
 NAME = "geodesic"
 HELP = "heat-method geodesic distance from source vertices"

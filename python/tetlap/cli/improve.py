@@ -5,6 +5,10 @@ from __future__ import annotations
 
 from .. import _options
 from . import _output, _paths, _threads
+from .._names import public_dir
+
+__all__ = ["NAME", "HELP", "DESCRIPTION", "arguments", "check", "run"]
+__dir__ = public_dir(globals())
 
 NAME = "improve"
 HELP = "move interior vertices to remove negative dual weights"

@@ -7,6 +7,10 @@ import sys
 
 from .. import _options
 from . import _mesh, _output, _paths, _threads
+from .._names import public_dir
+
+__all__ = ["NAME", "HELP", "DESCRIPTION", "arguments", "check", "run"]
+__dir__ = public_dir(globals())
 
 NAME = "info"
 HELP = "the mesh and the Table 1 properties of both Laplacians"

@@ -22,8 +22,10 @@ from typing import NamedTuple
 from .. import _options
 from ..errors import OptionError
 from ._output import Output, folder
+from .._names import public_dir
 
 __all__ = ["EXPERIMENTS", "NAMES", "CORPUS_NAMES", "Experiment", "Output", "folder", "run"]
+__dir__ = public_dir(globals())
 
 
 class Experiment(NamedTuple):
@@ -42,6 +44,7 @@ class Experiment(NamedTuple):
     """It reads a folder of mesh files (``--meshes``)."""
 
 
+#: Every experiment, in the order of ``tetlap experiment --help``.
 EXPERIMENTS = (
     Experiment("dirichlet-shell", "shell",
                "Eq. 28 on a spherical shell: variance on r = 0.75 (Fig. 8/9)", 16),
@@ -59,15 +62,17 @@ EXPERIMENTS = (
     Experiment("regular-weights", "regular_weights",
                "weights that make a mesh regular; the Sec. 9 conjecture", 33, corpus=True),
     Experiment("heat-distance", "heat_distance",
-               "heat-method distance against the Euclidean one on balls and boxes (issue 29)", 8),
+               "heat-method distance against the Euclidean one on balls and boxes", 8),
     Experiment("harmonic", "harmonic",
                "the maximum principle of harmonic fields over a mesh corpus, against libigl",
                9, corpus=True),
     Experiment("finite-volumes", "finite_volumes",
                "Poisson on the ball: cell-centred and vertex-centred duals against the exact "
-               "solution (issue 31)", 7),
+               "solution", 7),
 )
+#: Their names, the choices of ``tetlap experiment NAME``.
 NAMES = tuple(e.name for e in EXPERIMENTS)
+#: The experiments that read a folder of mesh files (``--meshes``).
 CORPUS_NAMES = tuple(e.name for e in EXPERIMENTS if e.corpus)
 
 

@@ -13,6 +13,10 @@ import numpy as np
 from .. import assembly, diagnostics, meshes, solve
 from .._progress import bar as progress
 from ._plot import log_ticks
+from .._names import public_dir
+
+__all__ = ["K", "PAIRS", "ball_eigenvalues", "run"]
+__dir__ = public_dir(globals())
 
 K = 32
 PAIRS = (("primal", "barycentric"), ("primal", "circumcentric"),

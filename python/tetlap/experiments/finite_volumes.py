@@ -1,5 +1,5 @@
 """``finite-volumes``: a Poisson problem on the unit ball solved by the two finite-volume
-schemes of the orthogonal dual, against the exact solution (issue 31).
+schemes of the orthogonal dual, against the exact solution.
 
 The exact solution ``u = x^4 + y^2 z^2 - x y z + z`` (``Laplace(u) = 12 x^2 + 2 y^2 + 2
 z^2``; every scheme here reproduces linear functions, and the vertex dual even
@@ -37,6 +37,11 @@ from ..cells import cell_laplacian
 from ..dual import dual_geometry
 from ..regular import regular_weights
 from ._plot import log_ticks
+from .._names import public_dir
+
+__all__ = ["SCHEMES", "exact", "gradient", "laplacian", "vertex_dual", "cell_neumann",
+           "cell_dirichlet", "cell_neumann_regular", "run"]
+__dir__ = public_dir(globals())
 
 SCHEMES = ("vertex dual, Dirichlet", "cell, Neumann", "cell, Dirichlet faces",
            "cell, Neumann, regular weights")

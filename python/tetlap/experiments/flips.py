@@ -15,6 +15,10 @@ import numpy as np
 
 from .. import assembly
 from .._progress import bar as progress
+from .._names import public_dir
+
+__all__ = ["TWO", "THREE", "configuration", "rank_one", "two_tets_are_delaunay", "run"]
+__dir__ = public_dir(globals())
 
 TWO = np.array([[0, 1, 2, 3], [0, 1, 2, 4]])
 THREE = np.array([[3, 4, 0, 1], [3, 4, 1, 2], [3, 4, 2, 0]])

@@ -22,6 +22,10 @@ from .. import meshes as meshes_module
 from .._progress import bar as progress
 from ..fields import RANGE_RTOL, harmonic
 from .negative_weights import built_in, from_folder
+from .._names import public_dir
+
+__all__ = ["igl_outside", "run"]
+__dir__ = public_dir(globals())
 
 
 def igl_outside(V, T, b, values):

@@ -14,6 +14,10 @@ from .. import meshes
 from .._progress import bar as progress
 from ..heat import HeatDistance
 from ._plot import log_ticks
+from .._names import public_dir
+
+__all__ = ["BOUNDARIES", "lapy_distance", "sources", "run"]
+__dir__ = public_dir(globals())
 
 BOUNDARIES = ("neumann", "average")
 

@@ -1,4 +1,4 @@
-"""``improve``: moving interior vertices to remove negative dual weights (issue 17).
+"""``improve``: moving interior vertices to remove negative dual weights.
 
 Two parts, both with :func:`tetlap.improve.improve` (L-BFGS-B on a penalty of the
 interior dual weights below a margin, a volume barrier and a small displacement term; the
@@ -30,6 +30,10 @@ from .._progress import bar as progress
 from ..improve import improve
 from . import shell as shell_experiment
 from ._corpus import mesh_files
+from .._names import public_dir
+
+__all__ = ["MAX_TETS", "QUICK", "corpus", "run"]
+__dir__ = public_dir(globals())
 #: The full run skips corpus meshes with more tets than this (on a 2-core machine an
 #: L-BFGS-B iteration costs about two dual assemblies).
 MAX_TETS = 100_000

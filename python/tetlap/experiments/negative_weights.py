@@ -16,6 +16,10 @@ from .. import assembly, io, meshes
 from ..analysis import check
 from .._progress import bar as progress
 from ._corpus import mesh_files
+from .._names import public_dir
+
+__all__ = ["built_in", "from_folder", "run"]
+__dir__ = public_dir(globals())
 
 
 def built_in(quick: bool, seed: int):

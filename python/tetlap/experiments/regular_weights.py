@@ -1,5 +1,5 @@
-"""``regular-weights``: which meshes can be made regular, and what the weighted dual gains
-(issue 16), plus the Sec. 9 conjecture.
+"""``regular-weights``: which meshes can be made regular, and what the weighted dual gains,
+plus the Sec. 9 conjecture.
 
 Part 1, per mesh (the corpus with ``--meshes DIR``, and generated meshes): is it regular
 (:func:`tetlap.regular.regular_weights`), its margin, the negative interior weights and NSD
@@ -34,9 +34,14 @@ from ..properties import check
 from ..regular import regular_weights
 from .._progress import bar as progress
 from ._corpus import mesh_files
+from .._names import public_dir
 
-#: The corpus meshes of the quick run: small ones, two of them named in issue 16 (the full
-#: run has all 41, with the fish and the microstructure).
+__all__ = ["QUICK_CORPUS", "NSD_MAX_VERTICES", "MAX_TETS", "jittered_ball", "bcc",
+           "fit_primal", "shell_errors", "run"]
+__dir__ = public_dir(globals())
+
+#: The corpus meshes of the quick run: small ones, regular and not (the full run has all
+#: 41, with the fish and the microstructure).
 QUICK_CORPUS = ("sofa_raptor_8418.vtu", "libigl_octopus_low.mesh", "sofa_liver_v1.vtu",
                 "vtkdata_tetramesh_mixed_orient.vtk")
 NSD_MAX_VERTICES = 3000

@@ -13,6 +13,10 @@ import numpy as np
 from .. import assembly, diagnostics, meshes, solve
 from .._progress import bar as progress
 from ._plot import log_ticks
+from .._names import public_dir
+
+__all__ = ["KINDS", "measure", "run"]
+__dir__ = public_dir(globals())
 
 KINDS = ("primal", "dual")
 

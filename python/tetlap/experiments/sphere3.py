@@ -13,6 +13,10 @@ import numpy as np
 from .. import assembly, meshes
 from .._progress import bar as progress
 from ._plot import log_ticks
+from .._names import public_dir
+
+__all__ = ["run"]
+__dir__ = public_dir(globals())
 
 
 def run(out) -> None:

@@ -27,6 +27,8 @@ from ._dual_cells import DualCells, dual_cells
 from ._pyvista import edges_to_pyvista, to_pyvista
 from ._read import from_mesh, read
 from ._write import to_meshio, write
+from .._names import public_dir
 
 __all__ = ["read", "from_mesh", "write", "to_meshio", "to_pyvista", "edges_to_pyvista",
            "dual_cells", "DualCells"]
+__dir__ = public_dir(globals())

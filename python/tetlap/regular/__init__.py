@@ -64,6 +64,7 @@ from . import masses, search, verify
 from .conditions import Conditions, _validated, face_margins
 from .result import ANSWERS, STATUSES, RegularWeights
 from .search import TARGET_MARGIN, Budget, Certificate, Problem
+from .._names import public_dir
 
 __all__ = [
     "regular_weights",
@@ -73,6 +74,7 @@ __all__ = [
     "TARGET_MARGIN",
     "MAX_ITERATIONS",
 ]
+__dir__ = public_dir(globals())
 
 #: The default work budget of :func:`regular_weights` (``max_iterations``): L-BFGS
 #: iterations of the search and the mass step together. Every corpus mesh (up to 205k

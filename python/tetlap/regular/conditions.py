@@ -23,8 +23,10 @@ import numpy as np
 from .. import _arrays, _core
 from ..errors import DegenerateElementError, NonFiniteError, ShapeError
 from .verify import exact_orientation
+from .._names import public_dir
 
 __all__ = ["Conditions", "face_margins"]
+__dir__ = public_dir(globals())
 
 
 def _validated(V, T):

@@ -23,8 +23,10 @@ import numpy as np
 
 from .. import _core, assembly
 from .search import Budget, Outcome, Problem
+from .._names import public_dir
 
 __all__ = ["MASS_ITERATIONS", "MassStep", "keep_masses", "circumcentric_masses"]
+__dir__ = public_dir(globals())
 
 #: L-BFGS iterations of the mass step at most (over all rounds).
 MASS_ITERATIONS = 2000

@@ -5,8 +5,10 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from .._names import public_dir
 
 __all__ = ["RegularWeights", "STATUSES", "ANSWERS"]
+__dir__ = public_dir(globals())
 
 #: The values of :attr:`RegularWeights.status`: ``"regular"`` (the weights returned make
 #: every interior face strictly locally regular: checked), ``"not regular"`` (proved: a

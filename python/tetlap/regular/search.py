@@ -27,9 +27,11 @@ from .._interrupt import interruptible
 from ..errors import NonFiniteError
 from . import verify
 from .conditions import Conditions
+from .._names import public_dir
 
 __all__ = ["TARGET_MARGIN", "LEVEL_ITERATIONS", "Problem", "Budget", "Certificate",
            "Outcome", "search"]
+__dir__ = public_dir(globals())
 
 #: Margin the weights aim for on the faces they have to repair (default of
 #: ``target_margin``): 0.1% of the face size. Small on purpose: the larger the target, the

@@ -41,9 +41,11 @@ from math import gcd
 import numpy as np
 
 from .. import _core
+from .._names import public_dir
 
 __all__ = ["VERIFY_RTOL", "MarginCheck", "check_margins", "check_certificate", "check_folded",
            "check_nonmanifold", "exact_orientation"]
+__dir__ = public_dir(globals())
 
 #: Relative tolerance of the float64 test of a lifted determinant against its permanent;
 #: within it, exact arithmetic decides (module docstring; the core's

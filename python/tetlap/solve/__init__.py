@@ -8,7 +8,7 @@ matrix, non-negative diagonal) is refused with an :class:`tetlap.OptionError`. D
 with vertex indices keep the user's order: ``f[fixed[i]] = values[i]``.
 
 Every function takes ``solver=`` (``"auto"``, ``"amg"``, ``"cholesky"``, ``"lu"``: what each
-costs and when to pick it is in :func:`dirichlet` and SCALING.md), ``progress=`` and
+costs and when to pick it is in :func:`dirichlet` and :doc:`/project/scaling`), ``progress=`` and
 ``return_info=`` (a :class:`SolveInfo`: solver, ordering, iterations, residual, phase
 times). Every function checks its input like the operators do (shapes, finiteness, index
 ranges, options: the :mod:`tetlap.errors` classes) and checks what it returns: a
@@ -21,7 +21,7 @@ factorization); its answers pass the same residual check as every other. Vertice
 element (no edge in ``L``) take part in no system, and data there other than 0 are
 refused. Matrices scaled by ``2^-1000 .. 2^1000`` and meshes from 1e-150 to 1e150 are
 solved in frames scaled by powers of two (exact), with the unit answers scaled. Long solves answer Ctrl-C within a second. What each
-solver costs: README, "Solvers".
+solver costs: :doc:`/guide/solving`.
 
 >>> import numpy as np, tetlap
 >>> V, T = tetlap.meshes.cube(4, jitter=0.2)
@@ -42,6 +42,7 @@ from ._eigs import eigs
 from .factor import PIVOT_RTOL, Factor, factorize
 from .info import SolveInfo
 from ._neumann import neumann, neumann_primal_kkt
+from .._names import public_dir
 
 __all__ = [
     "dirichlet",
@@ -59,3 +60,4 @@ __all__ = [
     "PIVOT_RTOL",
     "SOLVERS",
 ]
+__dir__ = public_dir(globals())

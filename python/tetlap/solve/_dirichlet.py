@@ -46,7 +46,7 @@ def dirichlet(L, fixed, values, rhs=None, *, method: str = "eliminate", solver: 
         (minutes at 1M tets). ``"auto"``: amg from 10k unknowns, else cholesky, falling
         back to cholesky then lu when CG finds the system indefinite or its answer fails
         the residual check (``info.fallbacks`` says why). What each costs, measured as
-        multiples of one assembly with the command to rerun: README, "Solvers".
+        multiples of one assembly with the command to rerun: :doc:`/guide/solving`.
     progress : bool, optional
         Phases and CG iterations on stderr (default: when stderr is a terminal).
     return_info : bool, default False

@@ -79,7 +79,7 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None, solver: s
     not be certified. Up to
     400 free vertices the dense generalized problem is solved instead (all eigenvalues).
     Cost on the 974k-tet ball with ``k=10`` and the boundary fixed: the ordering, two
-    factorizations and about 40 solves, near 40x one assembly (BENCHMARKS.md).
+    factorizations and about 40 solves, near 40x one assembly (:doc:`/project/benchmarks`).
 
     Examples
     --------

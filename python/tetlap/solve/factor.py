@@ -31,8 +31,10 @@ from .._progress import Stages
 from ..errors import DtypeError, OptionError, ShapeError, SolveError
 from . import _checks
 from .info import SolveInfo
+from .._names import public_dir
 
 __all__ = ["factorize", "Factor", "ORDERINGS", "nested_dissection"]
+__dir__ = public_dir(globals())
 
 #: Fill-reducing orderings of :func:`factorize`.
 ORDERINGS = ("auto", "nd", "amd")
@@ -336,7 +338,7 @@ def factorize(A, *, solver: str = "auto", ordering="auto", progress=None) -> Fac
     Factor
         ``.solve(b)``, ``.refactor(A)``, ``.inertia()``, ``.info``.
 
-    Cost: README, "Solvers" (the nested dissection and the ``LL^T``, each further solve
+    Cost: :doc:`/guide/solving` (the nested dissection and the ``LL^T``, each further solve
     and the factor's memory on a 974k-tet ball, as multiples of one assembly, with the
     command to rerun). Ctrl-C is answered
     within 0.1 s; an interrupted factorization finishes in the background and is dropped.

@@ -6,6 +6,10 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import time
+from .._names import public_dir
+
+__all__ = ["SolveInfo"]
+__dir__ = public_dir(globals())
 
 
 @dataclasses.dataclass
