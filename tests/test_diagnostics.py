@@ -369,3 +369,22 @@ def test_folded_tets_of_the_polyfem_microstructure():
         assert interior_vertices_without_linear_precision(V, T, kind).tolist() == spoiled.tolist()
     # reordering the vertices of every tet changes nothing
     assert (d.folded_tets(V, T[:, [1, 0, 2, 3]]) == d.folded_tets(V, T)).all()
+
+
+@pytest.mark.parametrize("scale", [1e-300, 1e-150, 1e-120, 1.0, 1e150, 1e300])
+def test_orientation_and_folds_are_exact_at_any_scale(scale):
+    """The sign of a tet is decided exactly, not from its volume, which leaves the float64
+    range below about 1e-103 in size (it read 0, "flat", and no fold was found)."""
+    V, T = tetlap.meshes.cube(2)
+    T = T.copy()
+    T[::3] = T[::3, [1, 0, 2, 3]]                       # some vertex orders reversed
+    expected = tetlap.diagnostics.orientation(V, T)
+    assert set(expected.tolist()) == {-1, 1}
+    np.testing.assert_array_equal(tetlap.diagnostics.orientation(V * scale, T), expected)
+    s = tetlap.diagnostics.summary(V * scale, T)
+    assert (s["n_positive_tets"], s["n_negative_tets"]) == ((expected > 0).sum(), (expected < 0).sum())
+    folded = V.copy()
+    folded[13] = [0.5, 0.5, 1.2]                        # the centre pulled out through the top
+    np.testing.assert_array_equal(tetlap.diagnostics.folded_tets(folded * scale, T),
+                                  tetlap.diagnostics.folded_tets(folded, T))
+    assert tetlap.diagnostics.folded_tets(folded * scale, T).sum() == 6

@@ -38,7 +38,7 @@ def check_float_range(V, T) -> None:
     """Raise :class:`tetlap.DegenerateElementError` (``.element``: the first such tet)
     unless every tet's volume is a normal float64 or the tet is flat, and the mesh volume
     is finite. ``V`` (n, d) float64 and ``T`` (m, 4) int64, validated."""
-    volume, dihedral, _ = _core.quality(V, T)
+    volume, dihedral, _, _ = _core.quality(V, T)
     size = np.abs(volume)
     shaped = ~np.isnan(dihedral).any(axis=1)
     outside = ~(size <= LARGEST) | (shaped & (size < SMALLEST))

@@ -209,8 +209,17 @@ def signed_volumes(V, T=None) -> np.ndarray:
 
 @_arrays.takes_mesh_object
 def orientation(V, T=None) -> np.ndarray:
-    """Sign of ``det[x1-x0, x2-x0, x3-x0]`` per tet, (m,) int8: +1, -1 or 0 (flat)."""
-    return np.sign(signed_volumes(V, T)).astype(np.int8)
+    """Sign of ``det[x1-x0, x2-x0, x3-x0]`` per tet, (m,) int8: +1, -1 or 0 (exactly flat),
+    decided exactly at any scale (a tet of size ``1e-150`` has a volume below the float64
+    range, 0 in :func:`signed_volumes`, and its sign all the same); +1 for a tet immersed in
+    R^d, d > 3, that is not flat.
+
+    >>> import numpy as np, tetlap
+    >>> V = 1e-150 * np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> tetlap.diagnostics.signed_volumes(V, [[0, 1, 2, 3]]), tetlap.diagnostics.orientation(V, [[1, 0, 2, 3]])
+    (array([0.]), array([-1], dtype=int8))
+    """
+    return _quality(V, T)[3]
 
 
 @_arrays.takes_mesh_object
@@ -299,19 +308,19 @@ def non_delaunay_tets(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
     return bad
 
 
-def _folds(V, T, interior, volume) -> np.ndarray:
+def _folds(V, T, interior, sign) -> np.ndarray:
     """Boolean per row of the core's ``interior`` face pairs ``[s, a, t, b]`` (tet ``s``,
     its corner ``a`` opposite the face, tet ``t``, its corner ``b``): the apexes of the
-    two tets lie on the same side of the face. From the signs of the tets' ``volume``
-    (their determinants are rounded correctly, so the signs are exact) and the parity of
+    two tets lie on the same side of the face. From the tets' exact orientation ``sign``
+    (the core's, exact at any scale) and the parity of
     each tet's vertex order against the face's; a flat tet folds nothing."""
     s, a, t, b = interior.T
     face = T[s[:, None], _FACES[a]]               # outward for a positive tet s: its apex
-    side_s = -np.sign(volume[s])                  # lies on the negative side
+    side_s = -sign[s].astype(np.int64)             # lies on the negative side
     # tet t as (face in s's order, apex of t): the parity of that reordering of T[t]
     order = np.column_stack([(T[t][:, None, :] == face[:, :, None]).argmax(axis=2), b])
     inversions = sum((order[:, i] > order[:, j]) for i in range(4) for j in range(i + 1, 4))
-    side_t = np.sign(volume[t]) * (1 - 2 * (inversions % 2))
+    side_t = sign[t].astype(np.int64) * (1 - 2 * (inversions % 2))
     return (side_s == side_t) & (side_s != 0)
 
 
@@ -336,10 +345,10 @@ def folded_faces(V, T=None) -> np.ndarray:
     interior = _core.faces(T, len(V))[1]
     if V.shape[1] != 3:
         return np.zeros(len(interior), dtype=bool)
-    return _folds(V, T, interior, _core.quality(V, T)[0])
+    return _folds(V, T, interior, _core.quality(V, T)[3])
 
 
-def _folded_tets(T, interior, folded, volume) -> np.ndarray:
+def _folded_tets(T, interior, folded, volume, sign) -> np.ndarray:
     """:func:`folded_tets` from the interior face pairs and their fold flags: the tets on
     the smaller side (fewer tets, then less volume; both on a tie) of the folds of each
     face-connected part. The sides are a two-colouring of the tets in which neighbours
@@ -353,7 +362,7 @@ def _folded_tets(T, interior, folded, volume) -> np.ndarray:
     if not folded.any():
         return np.zeros(m, dtype=bool)
     s, t = interior[:, 0], interior[:, 2]
-    live = (volume[s] != 0) & (volume[t] != 0)
+    live = (sign[s] != 0) & (sign[t] != 0)
     s, t, swap = s[live], t[live], folded[live].astype(np.int64)
     rows = np.concatenate([s, s + m])
     cols = np.concatenate([t + m * swap, t + m * (1 - swap)])
@@ -402,8 +411,8 @@ def folded_tets(V, T=None) -> np.ndarray:
     interior = _core.faces(T, len(V))[1]
     if V.shape[1] != 3:
         return np.zeros(len(T), dtype=bool)
-    volume = _core.quality(V, T)[0]
-    return _folded_tets(T, interior, _folds(V, T, interior, volume), volume)
+    volume, _, _, sign = _core.quality(V, T)
+    return _folded_tets(T, interior, _folds(V, T, interior, sign), volume, sign)
 
 
 @_arrays.takes_mesh_object
@@ -425,7 +434,7 @@ def folded_vertices(V, T=None) -> np.ndarray:
     interior = _core.faces(T, len(V))[1]
     mask = np.zeros(len(V), dtype=bool)
     if V.shape[1] == 3:
-        mask[_fold_vertices(T, interior, _folds(V, T, interior, _core.quality(V, T)[0]))] = True
+        mask[_fold_vertices(T, interior, _folds(V, T, interior, _core.quality(V, T)[3]))] = True
     return mask
 
 
@@ -468,7 +477,7 @@ def _summary(V, T, rtol: float = DELAUNAY_RTOL) -> tuple[dict, np.ndarray]:
     """:func:`summary` of validated arrays, and the (n,) bool mask of boundary vertices."""
     n, in_r3 = len(V), V.shape[1] == 3
     boundary, interior, nonmanifold = _core.faces(T, n)
-    volume, dihedral, well = _core.quality(V, T)
+    volume, dihedral, well, sign = _core.quality(V, T)
     on_boundary = np.zeros(n, dtype=bool)
     on_boundary[T[boundary[:, 0][:, None], _FACES[boundary[:, 1]]].ravel()] = True
     referenced = _referenced(T, n)
@@ -478,8 +487,8 @@ def _summary(V, T, rtol: float = DELAUNAY_RTOL) -> tuple[dict, np.ndarray]:
         "n_tets": len(T),
         "n_boundary_vertices": int(on_boundary.sum()),
         "n_unreferenced_vertices": int((~referenced).sum()),
-        "n_positive_tets": int((volume > 0).sum()) if in_r3 else None,
-        "n_negative_tets": int((volume < 0).sum()) if in_r3 else None,
+        "n_positive_tets": int((sign > 0).sum()) if in_r3 else None,
+        "n_negative_tets": int((sign < 0).sum()) if in_r3 else None,
         "n_degenerate_tets": int(flat.sum()),
         "n_duplicate_tets": int(_core.duplicates(T, n).sum()),
         "n_boundary_faces": len(boundary),
@@ -499,8 +508,8 @@ def _summary(V, T, rtol: float = DELAUNAY_RTOL) -> tuple[dict, np.ndarray]:
         "folded_vertices": [],
     }
     if in_r3:
-        folds = _folds(V, T, interior, volume)
-        tets = np.flatnonzero(_folded_tets(T, interior, folds, volume))
+        folds = _folds(V, T, interior, sign)
+        tets = np.flatnonzero(_folded_tets(T, interior, folds, volume, sign))
         vertices = _fold_vertices(T, interior, folds)
         result.update(n_folded_faces=int(folds.sum()), n_folded_tets=len(tets),
                       folded_tets=tets[:LISTED].tolist(), n_folded_vertices=len(vertices),

@@ -24,7 +24,7 @@ import numpy as np
 
 from . import _arrays, _extras, _options
 from ._progress import Stages
-from .diagnostics import signed_volumes
+from .diagnostics import orientation, signed_volumes
 from .errors import NonFiniteError, OptionError, ShapeError
 from ._names import public_dir
 
@@ -94,7 +94,7 @@ def _qhull(build, points: np.ndarray):
 def orient(V, T) -> np.ndarray:
     """A copy of ``T`` with every negatively oriented tet made positive (corners 2, 3 swapped)."""
     T = np.array(T, dtype=np.int64)
-    flip = signed_volumes(V, T) < 0
+    flip = orientation(V, T) < 0
     T[flip, 2], T[flip, 3] = T[flip, 3].copy(), T[flip, 2].copy()
     return T
 

@@ -60,9 +60,9 @@ def jittered_ball(n: int, amount: float, seed: int):
     inner = diagnostics.interior_vertices(V, T)
     move = np.zeros_like(V)
     move[inner] = rng.uniform(-1, 1, size=(int(inner.sum()), 3)) * amount * h
-    sign0 = np.sign(diagnostics.signed_volumes(V, T))
+    sign0 = diagnostics.orientation(V, T)
     for _ in range(20):
-        flipped = np.sign(diagnostics.signed_volumes(V + move, T)) != sign0
+        flipped = diagnostics.orientation(V + move, T) != sign0
         if not flipped.any():
             break
         move[np.unique(T[flipped])] /= 2
@@ -240,7 +240,7 @@ def run(out, meshes=None) -> None:
             V[inner] += rng.uniform(-a, a, size=(int(inner.sum()), 3)) * h
             cases.append((a, V))
         for a, V in progress(cases, desc=f"conjecture {base}"):
-            if (np.sign(diagnostics.signed_volumes(V, T)) <= 0).any():
+            if (diagnostics.orientation(V, T) <= 0).any():
                 continue
             if _negative_interior(V, T, "primal") > 0:
                 out.row(part="conjecture", family=base, jitter=a, primal_non_negative=False)

@@ -120,7 +120,8 @@ pub fn element_certificate<'py>(
     verdict(py, compute(py, opts, move |opts| input.run(job, opts))?)
 }
 
-/// `(volume (m,), dihedral (m, 6) degrees, well_centered (m,) bool)` of a tet mesh.
+/// `(volume (m,), dihedral (m, 6) degrees, well_centered (m,) bool, orientation (m,) int8)`
+/// of a tet mesh (the orientation exact where the volume underflows).
 #[pyfunction]
 #[pyo3(signature = (points, cells, *, options=None))]
 pub fn quality<'py>(py: Python<'py>, points: PyReadonlyArray2<'py, f64>, cells: PyReadonlyArray2<'py, i64>, options: Option<OptionsArg>) -> PyResult<Bound<'py, PyTuple>> {
@@ -130,12 +131,14 @@ pub fn quality<'py>(py: Python<'py>, points: PyReadonlyArray2<'py, f64>, cells: 
     let volume: Vec<f64> = q.iter().map(|t| t.volume).collect();
     let dihedral: Vec<f64> = q.iter().flat_map(|t| t.dihedral).collect();
     let well: Vec<bool> = q.iter().map(|t| t.well_centered).collect();
+    let orientation: Vec<i8> = q.iter().map(|t| t.orientation).collect();
     PyTuple::new(
         py,
         [
             PyArray1::from_vec(py, volume).into_any(),
             PyArray1::from_vec(py, dihedral).reshape([q.len(), 6])?.into_any(),
             PyArray1::from_vec(py, well).into_any(),
+            PyArray1::from_vec(py, orientation).into_any(),
         ],
     )
 }

@@ -22,6 +22,10 @@ pub struct TetQuality {
     pub dihedral: [f64; 6],
     /// The circumcenter is strictly inside the tet and every face angle is acute.
     pub well_centered: bool,
+    /// The sign of `det[x1-x0, x2-x0, x3-x0]`, exact (`volume` may underflow to zero for a
+    /// tet below `1e-100` in size): `1`, `-1`, or `0` for a flat tet; `1` for a tet
+    /// immersed in R^d, d > 3, that is not flat.
+    pub orientation: i8,
 }
 
 /// The quality of one tet from its local frame; `signed` keeps the orientation (R^3).
@@ -50,7 +54,8 @@ pub fn tet_quality(t: &LocalTet, signed: bool) -> TetQuality {
         // the face angles at corners a and b of every face through edge ab
         (0..4).filter(|&c| c != a && c != b).all(|c| (x[b] - x[a]).dot(x[c] - x[a]) > 0.0 && (x[a] - x[b]).dot(x[c] - x[b]) > 0.0)
     });
-    TetQuality { volume, dihedral, well_centered: inside && acute }
+    let orientation = if signed { det.signum() as i8 } else { 1 } * (det != 0.0) as i8;
+    TetQuality { volume, dihedral, well_centered: inside && acute, orientation }
 }
 
 /// Whether [`tet_quality`] from the frame serves a tet in R^3: its determinant is a normal
@@ -109,7 +114,8 @@ pub fn tet_quality_exact(x: [&[f64]; 4], signed: bool) -> TetQuality {
             });
             inside && acute
         };
-        TetQuality { volume, dihedral, well_centered }
+        let orientation = if signed { det.signum() as i8 } else { (!flat) as i8 };
+        TetQuality { volume, dihedral, well_centered, orientation }
     })
 }
 
