@@ -336,6 +336,13 @@ def info(points_path, tets_path, comm=None) -> dict:
         residual = 0.0
         interior = np.setdiff1d(np.arange(lo, hi), boundary) - lo
         coords = np.asarray(points[lo:hi], dtype=np.float64)
+        # measured in a frame centred on the mesh (its bounding box), as tetlap.check does:
+        # from the origin, a mesh far away adds its offset times each row's rounding
+        low = np.array([mpi.allreduce(float(coords[:, c].min()) if len(coords) else np.inf,
+                                      op=MPI.MIN) for c in range(d)])
+        high = np.array([mpi.allreduce(float(coords[:, c].max()) if len(coords) else -np.inf,
+                                       op=MPI.MAX) for c in range(d)])
+        coords = coords - (low + (high - low) / 2)
         for c in range(d):
             x, y = L.createVecs()
             x.setArray(coords[:, c].copy())

@@ -87,6 +87,17 @@ if rank == 0:
     check("info: negative-weight fraction equals the serial one",
           abs(result["dual"]["negative_weight_fraction"] - serial.negative_fraction) < 1e-12)
 
+# linear precision measured where the mesh lies: the same operator 1e6 away says yes too
+far_path = os.path.join(folder, "far.npy")
+if rank == 0:
+    np.save(far_path, V + 1e6)
+comm.Barrier()
+far = distributed.info(far_path, tets_path)
+if rank == 0:
+    check("info: linear precision far from the origin",
+          all(far[k]["linear_precision_residual"] < 1e-12 for k in ("primal", "dual")),
+          str({k: far[k]["linear_precision_residual"] for k in ("primal", "dual")}))
+
 passed = comm.allreduce(sum(results) if rank == 0 else 0)
 failed = comm.allreduce(len(results) - sum(results) if rank == 0 else 0)
 if rank == 0:
