@@ -22,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _options, _sparse, assembly, diagnostics
-from ._interrupt import interruptible
+from ._interrupt import interruptible, splu
 from .errors import OptionError, ShapeError
 
 __all__ = ["check", "Report", "negative_weights", "NEGATIVE_TOL", "TOL", "NSD_RTOL", "DENSE_NSD_MAX", "SPARSE_NSD_MAX"]
@@ -321,14 +321,12 @@ SPARSE_NSD_MAX = 30_000
 def _ldl_inertia(A: sp.csr_array, shift: np.ndarray) -> int | None:
     """Negative pivots of a symmetric-mode LU (an LDL^T with diagonal pivoting and a
     fill-reducing ordering) of ``A + diag(shift)``: by Sylvester's law, the number of its
-    negative eigenvalues. None if the factorisation had to pivot off the diagonal. Runs on
-    a helper thread (SuperLU releases the GIL), so Ctrl-C is answered at once; an
-    interrupted factorisation finishes in the background and is dropped."""
-    from scipy.sparse.linalg import splu
-
+    negative eigenvalues. None if the factorisation had to pivot off the diagonal. Runs in
+    a child process (:func:`tetlap._interrupt.splu`), so Ctrl-C is answered at once and
+    stops it."""
     shifted = sp.csc_array(A + sp.diags_array(shift))
-    lu = interruptible(splu, shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                       options={"SymmetricMode": True})
+    lu = splu(shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+              options={"SymmetricMode": True})
     if not np.array_equal(lu.perm_r, lu.perm_c):
         return None
     return int((lu.U.diagonal() < 0).sum())
