@@ -11,11 +11,12 @@ use std::sync::RwLock;
 use tetlap::solve::{Analysis, Factorization, LuFactors, Method, Ordering};
 use tetlap::{Error, Options};
 
-/// From this many stored values of the factor on, the numeric factorization runs in a
-/// child process (where fork is available): below it, the fork (a few ms in a small
-/// process, 0.1 s in one of 3 GB) would cost more than the factorization, which ends soon
-/// enough for Ctrl-C anyway (BENCHMARKS.md, "Ctrl-C during a factorization").
-pub const CHILD_MIN_VALUES: usize = 2_000_000;
+/// From this many stored values of the factor on (about the 4M of a 60k-tet cube), the
+/// numeric factorization runs in a child process (where fork is available): below it, the
+/// factorization ends within about 0.25 s, soon enough for Ctrl-C, and the fork with its
+/// shared memory (0.05 to 0.15 s) would cost as much (BENCHMARKS.md, "Ctrl-C during a
+/// factorization").
+pub const CHILD_MIN_VALUES: usize = 4_000_000;
 
 /// A sparse symmetric factorization (`"cholesky"`: `LL^T`, `"ldlt"`: `LDL^T` without
 /// pivoting) of an `n x n` matrix given as CSR arrays `(data, indices, indptr)`, with
