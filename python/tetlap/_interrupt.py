@@ -20,7 +20,7 @@ The core's own factorization (``tetlap._core.Factor``) forks from Rust in the sa
 from __future__ import annotations
 
 import ctypes
-import mmap
+import functools
 import os
 import pickle
 import signal
@@ -42,10 +42,6 @@ FORK = sys.platform.startswith("linux") and hasattr(os, "fork") and hasattr(os, 
 #: solvers build; 0.01 s for a Laplacian's), soon enough for Ctrl-C, and the fork would
 #: cost as much (BENCHMARKS.md, "Ctrl-C during a factorization").
 CHILD_MIN_ROWS = 1000
-
-#: Results of a child up to this size are copied out of the shared memory (larger arrays
-#: stay in it, without a copy).
-_COPY_MAX = 1 << 20
 
 _PR_SET_PDEATHSIG = 1
 
@@ -76,12 +72,13 @@ def interruptible(f: Callable[..., R], *args, **kwargs) -> R:
 
 
 def forked(f: Callable[..., R], *args, **kwargs) -> R:
-    """``f(*args, **kwargs)`` in a forked child process (where :data:`FORK`; elsewhere
-    :func:`interruptible`). The result (any picklable value; NumPy arrays travel without
-    pickling, large ones without a copy) or the exception ``f`` raised comes back through
-    an anonymous shared-memory file. This thread waits in slices of at most 0.05 s; on
-    Ctrl-C (any exception while waiting) the child is killed (SIGKILL) and reaped before the
-    exception goes on. The child ignores SIGINT and dies with this process.
+    """``f(*args, **kwargs)`` in a forked child process (where :data:`FORK`; elsewhere, or
+    if the fork fails, :func:`interruptible`). The result (any picklable value; NumPy
+    arrays travel as their bytes, out of the pickle) or the exception ``f`` raised comes back
+    through an anonymous memory file (``memfd_create``), read once the child has ended.
+    This thread waits in slices of at most 0.05 s; on Ctrl-C (any exception while waiting)
+    the child is killed (SIGKILL) and reaped before the exception goes on. The child
+    ignores SIGINT and dies with this process.
 
     ``f`` must not need threads of this process (the child has only the calling one): NumPy,
     SciPy's SuperLU and METIS are fine. A child killed from outside (such as by the system's
@@ -96,35 +93,32 @@ def forked(f: Callable[..., R], *args, **kwargs) -> R:
     # ignores it before anything else; here it is unblocked inside the try
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
-        pid = os.fork()
-        if pid == 0:  # pragma: no cover (the child process: it never leaves this block)
-            try:
-                _child(fd, libc, parent, f, args, kwargs)
-            finally:
-                os._exit(1)
-        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
-        status = _wait(pid)
-    except BaseException:
-        if pid:
-            _kill(pid)
-        raise
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
-    try:
+        try:
+            pid = os.fork()
+            if pid == 0:  # pragma: no cover (the child: it never leaves this block)
+                try:
+                    _child(fd, libc, parent, f, args, kwargs)
+                finally:
+                    os._exit(1)
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+            status = _wait(pid)
+        except BaseException as e:
+            if pid:
+                _kill(pid)
+            elif isinstance(e, OSError):  # fork: no memory for the page tables, no pid left
+                signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+                return interruptible(f, *args, **kwargs)
+            raise
         return _result(fd, status, getattr(f, "__name__", "the call"))
     finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         os.close(fd)
 
 
+@functools.cache
 def _libc():
-    """The C library (for ``prctl``), loaded once, before any fork."""
-    global _LIBC
-    if _LIBC is None:
-        _LIBC = ctypes.CDLL(None, use_errno=True)
-    return _LIBC
-
-
-_LIBC = None
+    """The C library (for ``prctl``), loaded before any fork."""
+    return ctypes.CDLL(None, use_errno=True)
 
 
 def _child(fd: int, libc, parent: int, f, args, kwargs) -> None:  # pragma: no cover
@@ -152,7 +146,6 @@ def _child(fd: int, libc, parent: int, f, args, kwargs) -> None:  # pragma: no c
         out.write(struct.pack(f"<{len(raws)}Q", *(r.nbytes for r in raws)))
         out.write(head)
         for r in raws:
-            out.write(b"\0" * (-out.tell() % 64))
             out.write(r)
     os._exit(0)
 
@@ -185,7 +178,7 @@ def _kill(pid: int) -> None:
 
 
 def _result(fd: int, status: int, what: str):
-    """The child's value (or its exception raised here) from ``fd``."""
+    """The child's value (or its exception, raised here) read from ``fd``."""
     size = os.fstat(fd).st_size
     if not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0 and size >= 16):
         if os.WIFSIGNALED(status):
@@ -195,25 +188,33 @@ def _result(fd: int, status: int, what: str):
                                   "memory?)")
             raise ChildProcessError(f"{what} ended its child process by {sig.name}")
         raise ChildProcessError(f"{what} failed in its child process")
-    data = mmap.mmap(fd, size)
-    view = memoryview(data)
-    n_head, n_raw = struct.unpack_from("<QQ", data)
-    sizes = struct.unpack_from(f"<{n_raw}Q", data, 16)
+    n_head, n_raw = struct.unpack("<QQ", _read(fd, 16, 0))
+    sizes = struct.unpack(f"<{n_raw}Q", _read(fd, 8 * n_raw, 16))
     at = 16 + 8 * n_raw
-    head = bytes(view[at:at + n_head])
+    if at + n_head + sum(sizes) != size:
+        raise ChildProcessError(f"{what} left an incomplete result in its child process")
+    head = _read(fd, n_head, at)
     at += n_head
     buffers = []
     for nbytes in sizes:
-        at += -at % 64
-        part = view[at:at + nbytes]
-        buffers.append(bytearray(part) if nbytes <= _COPY_MAX else part)
+        buffers.append(_read(fd, nbytes, at))
         at += nbytes
-    if at > size:
-        raise ChildProcessError(f"{what} left an incomplete result in its child process")
     ok, value = pickle.loads(head, buffers=buffers)
     if not ok:
         raise value
     return value
+
+
+def _read(fd: int, nbytes: int, offset: int) -> bytearray:
+    """``nbytes`` of ``fd`` from ``offset``, in a new (writable) buffer."""
+    out = bytearray(nbytes)
+    view, done = memoryview(out), 0
+    while done < nbytes:
+        got = os.preadv(fd, [view[done:]], offset + done)
+        if got <= 0:
+            raise ChildProcessError("the result of a child process ended early")
+        done += got
+    return out
 
 
 def spsolve(A, b) -> np.ndarray:
