@@ -59,7 +59,7 @@ def test_solves_answer_ctrl_c_within_a_second(call):
 
 #: Prints "factorizing <what>" when a factorization starts.
 ANNOUNCE = textwrap.dedent("""
-    import scipy.sparse.linalg as _sla, tetlap._core as _core
+    import numpy as _np, scipy.sparse.linalg as _sla, tetlap._core as _core
 
     def _announced(what, f):
         def call(*args, **kwargs):
@@ -70,6 +70,7 @@ ANNOUNCE = textwrap.dedent("""
     _sla.splu = _announced("splu", _sla.splu)
     _sla.spsolve = _announced("spsolve", _sla.spsolve)
     _core.Factor = _announced("Factor", _core.Factor)
+    _np.linalg.eigvalsh = _announced("eigvalsh", _np.linalg.eigvalsh)
 
     class Refactor:
         def __init__(self, inner):
@@ -91,7 +92,7 @@ FREE = RESTORE_SIGINT + ANNOUNCE + textwrap.dedent("""
     case = sys.argv[1]
     size = {"LL^T": 40, "LDL^T": 40, "refactor": 36, "lu": 24, "factor lu": 21, "kkt": 14,
             "replace": 28, "eigs": 44, "eigs lu": 24, "nsd": 28, "heat": 44,
-            "harmonic": 44}[case]
+            "harmonic": 44, "dense": 13}[case]
     V, T = tetlap.meshes.cube(size, jitter=0.2)
     L, M = tetlap.operators(V, T, "primal", "barycentric")
     fixed = tetlap.diagnostics.boundary_vertices(T, len(V))
@@ -113,6 +114,7 @@ FREE = RESTORE_SIGINT + ANNOUNCE + textwrap.dedent("""
         "heat": lambda: tetlap.HeatDistance(V, T),
         "harmonic": lambda: tetlap.fields.harmonic(V, T, fixed, V[fixed, 0],
                                                    laplacian="primal"),
+        "dense": lambda: tetlap.analysis._dense(L, np.abs(L.diagonal())),
     }
     print("ready", flush=True)
     start = time.time()
@@ -131,7 +133,8 @@ FREE = RESTORE_SIGINT + ANNOUNCE + textwrap.dedent("""
 #: The factorization each case is interrupted in (its first).
 TARGET = {"LL^T": "Factor", "LDL^T": "Factor", "refactor": "refactor", "lu": "spsolve",
           "factor lu": "splu", "kkt": "spsolve", "replace": "spsolve", "eigs": "Factor",
-          "eigs lu": "splu", "nsd": "splu", "heat": "Factor", "harmonic": "Factor"}
+          "eigs lu": "splu", "nsd": "splu", "heat": "Factor", "harmonic": "Factor",
+          "dense": "eigvalsh"}
 
 
 def until(p, prefix: str, timeout: float) -> str:

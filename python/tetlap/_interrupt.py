@@ -9,7 +9,8 @@ non-daemon thread, delays the interpreter's exit until it ends. So:
   a SIGTERM or SIGKILL of this process leaves no orphan and no file).
 * :func:`splu` and :func:`spsolve`: SciPy's SuperLU that way (from :data:`CHILD_MIN_ROWS`
   rows); :func:`splu` brings the factors back for solves in this process
-  (:class:`tetlap._core.LU`).
+  (:class:`tetlap._core.LU`). :func:`eigvalsh`: NumPy's dense eigenvalues that way (from
+  :data:`DENSE_CHILD_MIN` rows).
 * :func:`interruptible` waits for a call on a daemon thread: for calls that release the GIL
   and end soon (dense LAPACK, linprog), and where fork is not available (Windows, macOS),
   where an interrupted call finishes in the background and its result is dropped.
@@ -42,6 +43,10 @@ FORK = sys.platform.startswith("linux") and hasattr(os, "fork") and hasattr(os, 
 #: solvers build; 0.01 s for a Laplacian's), soon enough for Ctrl-C, and the fork would
 #: cost as much (BENCHMARKS.md, "Ctrl-C during a factorization").
 CHILD_MIN_ROWS = 1000
+
+#: From this order on, :func:`eigvalsh` runs in a child process (LAPACK on one thread: 0.2 s
+#: at 1000, 2 s at 2500).
+DENSE_CHILD_MIN = 1000
 
 _PR_SET_PDEATHSIG = 1
 
@@ -215,6 +220,13 @@ def _read(fd: int, nbytes: int, offset: int) -> bytearray:
             raise ChildProcessError("the result of a child process ended early")
         done += got
     return out
+
+
+def eigvalsh(A: np.ndarray) -> np.ndarray:
+    """NumPy's ``eigvalsh(A)`` of a dense symmetric ``A``, in a child process from
+    :data:`DENSE_CHILD_MIN` rows (below, on a daemon thread: :func:`interruptible`)."""
+    run = forked if len(A) >= DENSE_CHILD_MIN else interruptible
+    return run(np.linalg.eigvalsh, A)
 
 
 def spsolve(A, b) -> np.ndarray:
