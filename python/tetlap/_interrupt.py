@@ -258,19 +258,18 @@ class SuperLU:
         x = self._core.solve(np.ascontiguousarray(b.reshape(self.shape[0], -1).T))
         return x.T.reshape(b.shape)
 
-    def _factor(self, which: int):
+    def _factor(self, upper: bool):
         import scipy.sparse as sp
 
-        data, indices, indptr = self._core.factors()[which]
-        return sp.csc_array((data, indices, indptr), shape=self.shape)
+        return sp.csc_array(self._core.factor(upper), shape=self.shape)
 
     @property
     def L(self):
-        return self._factor(0)
+        return self._factor(False)
 
     @property
     def U(self):
-        return self._factor(1)
+        return self._factor(True)
 
 
 def _superlu_factors(A, options: dict):

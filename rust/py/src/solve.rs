@@ -264,12 +264,11 @@ impl PyLu {
         PyArray1::from_vec(py, x).reshape(shape)
     }
 
-    /// `(L, U)`, each as CSC arrays `(data, indices, indptr)` (copies).
-    fn factors<'py>(&self, py: Python<'py>) -> [Arrays<'py>; 2] {
-        self.inner.factors().map(|(indptr, indices, data)| {
-            let int = |v: &[usize]| v.iter().map(|&i| i as i64).collect::<Vec<_>>().into_pyarray(py);
-            (data.to_vec().into_pyarray(py), int(indices), int(indptr))
-        })
+    /// `U` (`upper=True`) or `L` as CSC arrays `(data, indices, indptr)` (a copy).
+    fn factor<'py>(&self, py: Python<'py>, upper: bool) -> Arrays<'py> {
+        let (indptr, indices, data) = self.inner.factors()[usize::from(upper)];
+        let int = |v: &[usize]| v.iter().map(|&i| i as i64).collect::<Vec<_>>().into_pyarray(py);
+        (data.to_vec().into_pyarray(py), int(indices), int(indptr))
     }
 
     /// The matrix order.
