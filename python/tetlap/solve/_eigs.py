@@ -184,7 +184,7 @@ def _sparse_eigs(A, B, k, sigma, solver, diagonal, info, stages, progress):
     raw = lambda x: F._raw(x[:, None])[:, 0]  # noqa: E731
     info.solver, info.method = "cholesky", "shift-invert Lanczos (ARPACK) on LDL^T"
     if solver == "lu":
-        from scipy.sparse.linalg import splu
+        from .._interrupt import splu
 
         with info.phase("factorization"):
             raw = splu(sp.csc_array(A - shift * B)).solve
