@@ -139,7 +139,7 @@ FREE = RESTORE_SIGINT + ANNOUNCE + textwrap.dedent("""
 
 #: The factorization each case is interrupted in (its first).
 TARGET = {"LL^T": "Factor", "LDL^T": "Factor", "refactor": "refactor", "lu": "spsolve",
-          "factor lu": "splu", "kkt": "spsolve", "replace": "spsolve", "eigs": "Factor",
+          "factor lu": "splu", "kkt": "splu", "replace": "spsolve", "eigs": "Factor",
           "eigs lu": "splu", "nsd": "splu", "heat": "Factor", "harmonic": "Factor",
           "dense": "eigvalsh"}
 
