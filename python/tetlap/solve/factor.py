@@ -180,7 +180,10 @@ class Factor:
         factorization takes symmetric values only (:class:`tetlap.OptionError`)."""
         A = _arrays.matrix(A, self.n, "A")
         if self._core is None:
-            self._A, self._norm = A, _checks.row_norm(A)
+            # no factor until the new one is complete: one interrupted or refused leaves a
+            # Factor that says so, not the old factor checked against the new values
+            self._A, self._norm, self._lu = A, _checks.row_norm(A), None
+            self._tiny = "the last refactor did not complete: refactor again before solving"
             self._factor_lu(A)
             return
         data = _within(A, self._A)
