@@ -3,6 +3,8 @@ smallest by Sylvester's law of inertia."""
 
 from __future__ import annotations
 
+import sys
+import time
 import warnings
 
 import numpy as np
@@ -10,7 +12,7 @@ import scipy.sparse as sp
 
 from .. import _arrays, _options
 from .._progress import Stages
-from ..errors import SolveError
+from ..errors import NonFiniteError, SolveError
 from . import _amg, _checks
 from .factor import Factor
 from .info import SolveInfo
@@ -31,8 +33,11 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None, solver: s
     Parameters
     ----------
     L : (n, n) SciPy sparse array or matrix
-        A Laplacian (symmetric, not modified); it may be indefinite (the dual of a
-        non-Delaunay mesh): its negative eigenvalues are the smallest and are returned.
+        A Laplacian in tetlap's sign (``L[i, i] = -sum_j w_ij``; a stiffness matrix ``K =
+        -L`` as LaPy and scikit-fem hold it is refused with an :class:`tetlap.OptionError`:
+        pass ``-K``), symmetric on the free vertices, not modified; it may be indefinite
+        (the dual of a non-Delaunay mesh): its negative eigenvalues are the smallest and are
+        returned. Its stored pattern says which vertices belong to an element.
     M : (n, n) SciPy sparse array or matrix
         A mass matrix; ``M_II`` must be positive definite: a lumped mass with a
         non-positive free entry (circumcentric masses on non-Delaunay meshes) raises
@@ -41,7 +46,8 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None, solver: s
         Number of eigenpairs, ``1 <= k < n_free``.
     fixed : (n,) bool mask or integer array, optional
         Dirichlet vertices (e.g. the boundary; ``None``: no constraint). ``I`` are the
-        others that belong to an element (unreferenced vertices take no part: their
+        others that belong to an element, i.e. whose row of ``L`` stores an entry off the
+        diagonal (vertices in no element take no part, whatever ``M`` holds for them: their
         eigenvector entries are 0).
     sigma : float, optional
         The first shift of the shift-invert Lanczos iteration (default slightly below 0).
@@ -55,7 +61,8 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None, solver: s
         positive definite ``A`` (no factorization for the search; the proof still needs
         one).
     progress : bool, optional
-        Phases on stderr (default: when stderr is a terminal).
+        Phases on stderr, with the solves done during the search (default: when stderr is
+        a terminal).
     return_info : bool, default False
         Also return a :class:`tetlap.solve.SolveInfo`; ``info.verification`` says how the
         values were shown to be the k smallest.
@@ -70,6 +77,10 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None, solver: s
 
     Notes
     -----
+    The pencil is solved scaled by powers of two (exact) that bring ``|L|`` and ``|M|``
+    near 1, so the answer does not depend on the units: ``L 2^a`` and ``M 2^b`` give the
+    eigenvalues times ``2^(a - b)`` and the vectors times ``2^(-b / 2)``
+    (:class:`tetlap.NonFiniteError` when the eigenvalues leave the float64 range).
     The k values are proved to be the k smallest independently of the search that found
     them: an ``LDL^T`` of ``A - s B`` at ``s`` just above ``lambda_k`` (by ``1e-6
     |lambda_k|``) must have exactly ``k`` negative pivots (Sylvester: ``k`` eigenvalues
@@ -91,11 +102,11 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None, solver: s
     >>> bool(lam[0] > 3 * 3.14159**2 * 0.9), vec.shape, info.verification is not None
     (True, (343, 3), True)
     """
-    L = _arrays.matrix(L)
+    L = _arrays.laplacian(L)
     n = L.shape[0]
     M = _arrays.matrix(M, n, "M")
     fixed = np.zeros(n, dtype=bool) if fixed is None else _checks.mask(fixed, n)
-    referenced = (np.asarray(abs(L).sum(axis=1)).ravel() > 0) | (np.asarray(abs(M).sum(axis=1)).ravel() > 0)
+    referenced = _in_elements(L)
     free = np.flatnonzero(~fixed & referenced)
     k = int(_options.count(k, "k", 1, len(free) - 1))
     if sigma is not None:
@@ -104,16 +115,16 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None, solver: s
     _checks.flag(progress, "progress")
     A = sp.csr_array(-L[free][:, free])
     B = sp.csr_array(M[free][:, free])
-    diagonal = B.nnz == np.count_nonzero(B.diagonal())
-    if diagonal:
-        d = B.diagonal()
-        if (d <= 0).any():
-            bad = int(free[np.argmin(d)])
-            raise SolveError(
-                f"the mass matrix is not positive on the free vertices: M[{bad}, {bad}] = "
-                f"{d.min():.3e} ({int((d <= 0).sum())} entries <= 0); circumcentric masses "
-                'can be negative on non-Delaunay meshes: use the mixed mass, '
-                'tetlap.mass(V, T, "mixed") (positive on every mesh)')
+    _symmetric(A, free, "L")
+    _symmetric(B, free, "M")
+    diagonal = _positive_diagonal(B, free)
+    # the pencil scaled by powers of two (exact): |A|, |B| in [1, 4), so that no tolerance
+    # or shift depends on the units; the eigenvalues scale by 2^(eA - eB), the vectors by
+    # 2^(-eB / 2) (eB even)
+    eA, eB = _exponent(A), _exponent(B, even=True)
+    A.data, B.data = np.ldexp(A.data, -eA), np.ldexp(B.data, -eB)
+    if sigma is not None:
+        sigma = float(np.ldexp(sigma, eB - eA))
     info = SolveInfo()
     stages = Stages("eigs", progress)
     if len(free) <= DENSE_MAX:
@@ -122,9 +133,66 @@ def eigs(L, M, k: int = 10, fixed=None, *, sigma: float | None = None, solver: s
         lam, vec = _sparse_eigs(A, B, k, sigma, solver, diagonal, info, stages, progress)
     stages.done()
     _check_pairs(A, B, lam, vec, info)
+    with np.errstate(over="ignore"):
+        lam, vec = np.ldexp(lam, eA - eB), np.ldexp(vec, -eB // 2)
+    if not (np.isfinite(lam).all() and np.isfinite(vec).all()):
+        raise NonFiniteError("the eigenvalues leave the float64 range (|L| / |M| is too large "
+                             "for them); scale L or M")
     full = np.zeros((n, k))
     full[free] = vec
     return (lam, full, info) if return_info else (lam, full)
+
+
+def _in_elements(L) -> np.ndarray:
+    """(n,) bool: the vertices of an element, those whose row of ``L`` stores an entry off
+    the diagonal (explicit zeros included: tetlap assembles the pattern from the
+    elements, and stores a zero diagonal for a vertex in none). Not the non-empty rows of
+    ``L`` or ``M``: a mass such as the identity has rows for every vertex."""
+    rows = np.repeat(np.arange(L.shape[0]), np.diff(L.indptr))
+    referenced = np.zeros(L.shape[0], dtype=bool)
+    referenced[rows[L.indices != rows]] = True
+    return referenced
+
+
+def _exponent(X, even: bool = False) -> int:
+    """The power of two ``e`` with ``|X|_max 2^-e`` in ``[1, 2)`` (``[1, 4)``, ``e`` even,
+    with ``even``); 0 for a zero matrix."""
+    largest = float(np.abs(X.data).max()) if X.nnz else 0.0
+    e = int(np.frexp(largest)[1]) - 1 if largest > 0 else 0
+    return e - e % 2 if even else e
+
+
+def _symmetric(X, free, name: str) -> None:
+    """SolveError naming the largest asymmetry of ``X`` (the free block of ``name``) beyond
+    ``1e-12 |X|_max``: the problem is the symmetric ``-L f = lambda M f``."""
+    asym = sp.coo_array(X - X.T)
+    if not asym.nnz:
+        return
+    worst = int(np.argmax(np.abs(asym.data)))
+    if abs(asym.data[worst]) <= 1e-12 * np.abs(X.data).max():
+        return
+    i, j = int(asym.row[worst]), int(asym.col[worst])
+    sign = -1 if name == "L" else 1
+    raise SolveError(
+        f"{name} is not symmetric on the free vertices: {name}[{free[i]}, {free[j]}] = "
+        f"{sign * X[i, j]:.6g} but {name}[{free[j]}, {free[i]}] = {sign * X[j, i]:.6g}; eigs "
+        "solves the symmetric problem -L f = lambda M f (pass L and M themselves, not "
+        "M^-1 L)")
+
+
+def _positive_diagonal(B, free) -> bool:
+    """Whether the mass ``B`` (free block) is diagonal (explicit zeros off the diagonal do
+    not count); SolveError naming a free vertex whose mass ``M[i, i]`` is not positive (no
+    positive definite mass has one)."""
+    d = B.diagonal()
+    if len(d) and (d <= 0).any():
+        bad = int(free[np.argmin(d)])
+        raise SolveError(
+            f"the mass matrix is not positive on the free vertices: M[{bad}, {bad}] = "
+            f"{d.min():.3e} ({int((d <= 0).sum())} entries <= 0); circumcentric masses "
+            'can be negative on non-Delaunay meshes: use the mixed mass, '
+            'tetlap.mass(V, T, "mixed") (positive on every mesh)')
+    return not sp.coo_array(B - sp.diags_array(d)).count_nonzero()
 
 
 def _dense(A, B, k, info):
@@ -192,7 +260,10 @@ def _sparse_eigs(A, B, k, sigma, solver, diagonal, info, stages, progress):
 
     def apply(x):
         solves[0] += 1
+        ticker(f"{solves[0]} solves")
         return raw(np.asarray(x, dtype=np.float64).ravel())
+
+    ticker = _Ticker(stages)
 
     # an exactly multiple eigenvalue (a symmetric mesh) can hide a vector from the search:
     # the proof then fails and more vectors are asked for
@@ -212,6 +283,7 @@ def _sparse_eigs(A, B, k, sigma, solver, diagonal, info, stages, progress):
                         raise SolveError(f"the eigenproblem could not be solved "
                                          f"({type(e).__name__}: {e})") from e
                 info.iterations = solves[0]
+                ticker.close(f"{solves[0]} solves, {m} pairs")
         order = np.argsort(lam)[:k]
         lam, vec = lam[order], vec[:, order]
         stages("inertia proof")
@@ -228,13 +300,37 @@ def _sparse_eigs(A, B, k, sigma, solver, diagonal, info, stages, progress):
     return lam, vec
 
 
+class _Ticker:
+    """The running count of a long step of ``stages`` (a :class:`Stages`): on a terminal,
+    its line updated in place (at most every 0.2 s); elsewhere a whole line every 10 s and
+    one at the end."""
+
+    def __init__(self, stages: Stages) -> None:
+        self.stages, self.last, self.shown = stages, time.perf_counter(), ""
+
+    def __call__(self, text: str, final: bool = False) -> None:
+        st = self.stages
+        if not st.enabled or st.current is None:
+            return
+        now = time.perf_counter()
+        if now - self.last < (0.2 if st.live else 10.0) and not final:
+            return
+        self.last = now
+        if st.live:
+            print(f"\r{st.title}: {st.current[0]} ... {text}", end="", file=sys.stderr, flush=True)
+        else:
+            print(f"{st.title}: {st.current[0]}: {text}", file=sys.stderr, flush=True)
+
+    def close(self, text: str) -> None:
+        self(text, final=True)
+
+
 def _lobpcg(A, B, m, info, v0):
-    import pyamg
     from scipy.sparse.linalg import lobpcg
 
     info.solver, info.method = "amg", "LOBPCG preconditioned by smoothed aggregation"
     with info.phase("setup"):
-        ml = pyamg.smoothed_aggregation_solver(A, symmetry="symmetric")
+        ml = _amg.hierarchy(A)
     X = np.random.default_rng(0).standard_normal((A.shape[0], m))
     X[:, 0] = v0
     with info.phase("solve"), warnings.catch_warnings():
