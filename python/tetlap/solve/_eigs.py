@@ -178,6 +178,9 @@ def eigs(L, M, k: int | None = None, fixed=None, *, sigma: float | None = None,
         else:
             lam, vec = problem.smallest(k, solver)
         problem.stages.done()
+        if problem.F is not None:
+            for name, seconds in problem.F.info.phases.items():
+                info.phases[name] = info.phases.get(name, 0.0) + seconds
         _check_pairs(A, B, lam, vec, info)
         vec = _signs(vec)
     with np.errstate(over="ignore"):
@@ -389,9 +392,8 @@ class _Problem:
         info = self.info
         n_free = self.n - self.X0.shape[1]
         block = _block(want) << attempt
-        basis = min(max(2 * want, want + 4 * block), n_free - 1)
-        basis = max(basis // block, 1) * block
-        want = min(want, basis - 3 * block) if basis - 3 * block >= 1 else min(want, basis // 2)
+        basis = -(-max(2 * want + 2 * block, want + 6 * block) // block) * block
+        basis = min(basis, (n_free - 1) // block * block)
         if solver == "lu":
             from scipy.sparse.linalg import splu
 
@@ -429,6 +431,9 @@ class _Problem:
                 progress=report)
         ticker.close(f"{st.converged}/{st.want} pairs converged, {st.solves} solves")
         info.iterations = (info.iterations or 0) + st.solves
+        if st.converged < want:
+            raise _Missed(f"the search did not converge: {st.converged} of {want} pairs after "
+                          f"{st.restarts} restarts")
         return shift + 1.0 / theta, np.asarray(Y)
 
     def found(self, lam, vec):
@@ -444,32 +449,39 @@ class _Problem:
         return CLUSTER_RTOL * max(abs(s), top) + 1e-9 * self.scale
 
     # -- the three selections ---------------------------------------------------------
+    def retried(self, attempt_once):
+        """``attempt_once(attempt)`` until it returns: a search that missed pairs (the
+        inertia says so, or it did not converge) is repeated up to :data:`RETRIES` times
+        with twice the block and more pairs; then SolveError."""
+        for attempt in range(RETRIES + 1):
+            try:
+                return attempt_once(attempt)
+            except _Missed as e:
+                if attempt == RETRIES:
+                    raise SolveError(str(e)) from None
+                self.info.fallbacks.append(f"search {attempt + 1}: {e}")
+
     def smallest(self, k: int, solver: str):
-        c = self.X0.shape[1]
         if self.dense_enough(k):
             lam, vec = self.dense()
             return lam[:k], vec[:, :k]
         if solver == "amg":
             return self.smallest_amg(k)
         shift = self.below_spectrum(k)
-        want = max(k - c, 0)
-        guard = min(max(2, want // 50), 8)
-        for attempt in range(RETRIES + 1):
-            if want:
-                lam, vec = self.search(shift, want + guard, lambda x: x, solver, attempt)
-            else:
-                lam, vec = np.zeros(0), np.zeros((self.n, 0))
+        want = max(k - self.X0.shape[1], 0)
+
+        def once(attempt):
+            if attempt:
+                self.factor(shift)
+            guard = min(max(2, want // 50), 8) + (8 * attempt)
+            lam, vec = (self.search(shift, want + guard, lambda x: x, solver, attempt) if want
+                        else (np.zeros(0), np.zeros((self.n, 0))))
             lam, vec = self.found(lam, vec)
             self.stages("inertia proof")
-            try:
-                self.prove_smallest(lam, k)
-                return lam[:k], vec[:, :k]
-            except _Missed as e:
-                if attempt == RETRIES:
-                    raise SolveError(str(e)) from None
-                self.info.fallbacks.append(f"search {attempt + 1}: {e}")
-                guard += 8 << attempt
-                self.factor(shift)
+            self.prove_smallest(lam, k)
+            return lam[:k], vec[:, :k]
+
+        return self.retried(once)
 
     def prove_smallest(self, lam: np.ndarray, k: int) -> None:
         """Sylvester's proof that ``lam[:k]`` (ascending, residual-checked) are the k
@@ -507,58 +519,60 @@ class _Problem:
 
     def smallest_amg(self, k: int):
         sizes = sorted({k, min(k + 4, self.n - 1), min(2 * k + 8, self.n - 1)})
-        for m in sizes:
+
+        def once(attempt):
+            m = sizes[min(attempt, len(sizes) - 1)]
             lam, vec = _lobpcg(self.A, self.B, m - self.X0.shape[1], self.info, self.X0)
             lam, vec = self.found(lam, vec)
             self.stages("inertia proof")
-            try:
-                self.prove_smallest(lam, k)
-                return lam[:k], vec[:, :k]
-            except _Missed as e:
-                if m == sizes[-1]:
-                    raise SolveError(str(e)) from None
-                self.info.fallbacks.append(f"{m} vectors: {e}")
+            self.prove_smallest(lam, k)
+            return lam[:k], vec[:, :k]
+
+        return self.retried(once)
+
+    def counted(self, lo: float, hi: float) -> int:
+        """The eigenvalues in ``(lo, hi)``, by two counts (none below a ``lo`` under the
+        spectrum: zero when the factorization at ``lo`` is positive definite)."""
+        return self.count(hi) - self.count(lo)
 
     def nearest(self, k: int, sigma: float, solver: str):
         if self.dense_enough(k):
             lam, vec = self.dense()
             pick = np.sort(np.argsort(np.abs(lam - sigma), kind="stable")[:k])
             return lam[pick], vec[:, pick]
-        guard = min(max(2, k // 50), 8)
-        for attempt in range(RETRIES + 1):
-            F = self.factor(sigma)
-            if F.info.method == "LDL^T" and F._smallest_pivot() is not None and attempt == 0:
-                self.info.fallbacks.append(f"sigma = {sigma:.6g} is (nearly) an eigenvalue: "
-                                           "the search shifts by 1e-6")
-                sigma_s = sigma + self.gap(np.array([sigma]), sigma)
-                F = self.factor(sigma_s)
-            else:
-                sigma_s = sigma
-            lam, vec = self.search(sigma_s, k + guard, lambda x: np.abs(x - sigma), solver, attempt)
+        F = self.factor(sigma)
+        shift = sigma
+        if F._smallest_pivot() is not None:     # sigma is (nearly) an eigenvalue
+            shift = sigma + self.gap(np.array([sigma]), sigma)
+            self.info.fallbacks.append(f"sigma = {sigma:.6g} is (nearly) an eigenvalue: the "
+                                       f"search shifts to {shift:.6g}")
+
+        def once(attempt):
+            self.factor(shift)
+            guard = min(max(2, k // 50), 8) + 8 * attempt
+            lam, vec = self.search(shift, k + guard, lambda x: np.abs(x - sigma), solver,
+                                   attempt)
             lam, vec = self.found(lam, vec)
-            order = np.argsort(np.abs(lam - sigma), kind="stable")
-            pick = np.sort(order[:k])
+            pick = np.sort(np.argsort(np.abs(lam - sigma), kind="stable")[:k])
             r = float(np.abs(lam[pick] - sigma).max())
             delta = self.gap(lam[pick], r + abs(sigma))
             lo, hi = sigma - r - delta, sigma + r + delta
             self.stages("inertia proof")
             inside = int(((lam > lo) & (lam < hi)).sum())
-            counted = self.count(hi) - self.count(lo)
-            if counted == inside:
-                self.info.verification = (
-                    f"Sylvester inertia: {counted} eigenvalues between s = {lo:.6g} and "
-                    f"{hi:.6g} (negative pivots of LDL^T factorizations at both), all found")
-                return lam[pick], vec[:, pick]
+            counted = self.counted(lo, hi)
             if counted < inside:
                 raise SolveError(f"the k nearest could not be certified: {counted} eigenvalues "
                                  f"lie between {lo:.6g} and {hi:.6g}, {inside} were found")
-            if attempt == RETRIES:
-                raise SolveError(f"the k nearest could not be certified: {counted} eigenvalues "
-                                 f"lie between {lo:.6g} and {hi:.6g}, but {inside} were found "
-                                 "(the search missed some)")
-            self.info.fallbacks.append(f"search {attempt + 1}: {counted} eigenvalues between "
-                                       f"{lo:.6g} and {hi:.6g}, {inside} found")
-            guard += 8 << attempt
+            if counted > inside:
+                raise _Missed(f"the k nearest could not be certified: {counted} eigenvalues "
+                              f"lie between {lo:.6g} and {hi:.6g}, but {inside} were found "
+                              "(the search missed some)")
+            self.info.verification = (
+                f"Sylvester inertia: {counted} eigenvalues between s = {lo:.6g} and {hi:.6g} "
+                "(negative pivots of LDL^T factorizations at both), all found")
+            return lam[pick], vec[:, pick]
+
+        return self.retried(once)
 
     def interval(self, a: float, b: float, solver: str):
         if self.n <= DENSE_MAX:
@@ -568,19 +582,17 @@ class _Problem:
         delta = self.gap(np.array([a, b]), max(abs(a), abs(b)))
         lo, hi = a - delta, b + delta
         self.stages("inertia count")
-        counted = self.count(hi) - self.count(lo)
+        counted = self.counted(lo, hi)
         if self.dense_enough(counted):
             lam, vec = self.dense()
             pick = (lam >= a) & (lam <= b)
             return lam[pick], vec[:, pick]
         self.info.verification = (f"Sylvester inertia: {counted} eigenvalues between s = "
                                   f"{lo:.6g} and {hi:.6g}, all found")
-        if counted == 0:
-            return np.zeros(0), np.zeros((self.n, 0))
-        zeros = int(lo < 0 < hi) * self.X0.shape[1]
-        want = counted - zeros
+        want = counted - int(lo < 0 < hi) * self.X0.shape[1]
         sigma = (lo + hi) / 2
-        for attempt in range(RETRIES + 1):
+
+        def once(attempt):
             if want:
                 self.factor(sigma)
                 lam, vec = self.search(sigma, want, lambda x: np.abs(x - sigma), solver,
@@ -588,16 +600,15 @@ class _Problem:
             else:
                 lam, vec = np.zeros(0), np.zeros((self.n, 0))
             lam, vec = self.found(lam, vec)
-            keep = (lam > lo) & (lam < hi)
-            if int(keep.sum()) == counted:
-                pick = (lam >= a) & (lam <= b)
-                return lam[pick], vec[:, pick]
-            if attempt == RETRIES:
-                raise SolveError(f"the pairs in the interval could not be certified: "
-                                 f"{counted} eigenvalues lie between {lo:.6g} and {hi:.6g}, "
-                                 f"but {int(keep.sum())} were found (the search missed some)")
-            self.info.fallbacks.append(f"search {attempt + 1}: {int(keep.sum())} of {counted} "
-                                       "found")
+            inside = int(((lam > lo) & (lam < hi)).sum())
+            if inside != counted:
+                raise _Missed(f"the pairs in the interval could not be certified: {counted} "
+                              f"eigenvalues lie between {lo:.6g} and {hi:.6g}, but {inside} "
+                              "were found (the search missed some)")
+            pick = (lam >= a) & (lam <= b)
+            return lam[pick], vec[:, pick]
+
+        return self.retried(once)
 
 
 def _block(want: int) -> int:
@@ -668,13 +679,17 @@ def _lobpcg(A, B, m, info, X0):
 
 
 def _check_pairs(A, B, lam, vec, info):
+    """SolveError unless every pair has ``|A v - lambda B v|_inf <= RESIDUAL_TOL (|A|_inf +
+    |lambda| |B|_inf) |v|_inf``; the largest relative residual goes into ``info``."""
+    if not len(lam):
+        return
     norm_a, norm_b = _checks.row_norm(A), _checks.row_norm(B)
-    for j in range(len(lam)):
-        v = vec[:, j]
-        scale = (norm_a + abs(lam[j]) * norm_b) * np.abs(v).max()
-        residual = np.abs(A @ v - lam[j] * (B @ v)).max()
-        relative = residual / max(scale, 1e-300)
-        info.residual = max(info.residual, float(relative))
-        if not np.isfinite(lam[j]) or relative > _checks.RESIDUAL_TOL:
-            raise SolveError(f"eigenpair {j} (lambda = {lam[j]:.6g}) has relative residual "
-                             f"{relative:.1e}")
+    scale = (norm_a + np.abs(lam) * norm_b) * np.abs(vec).max(axis=0)
+    residual = np.abs(A @ vec - (B @ vec) * lam[None, :]).max(axis=0)
+    relative = residual / np.maximum(scale, 1e-300)
+    info.residual = max(info.residual, float(relative.max()))
+    bad = ~(np.isfinite(lam) & (relative <= _checks.RESIDUAL_TOL))
+    if bad.any():
+        j = int(np.argmax(bad))
+        raise SolveError(f"eigenpair {j} (lambda = {lam[j]:.6g}) has relative residual "
+                         f"{relative[j]:.1e}")

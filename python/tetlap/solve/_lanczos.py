@@ -221,7 +221,8 @@ def search(solve: Callable, mass: Mass, n: int, *, want: int, key: Callable, blo
     space.store(0, Q, BQ)
     m = 0                          # columns whose image is in H; V[:, m:m+b] is next
     local = 0                      # the columns the next block's image is coupled to
-    check = max(1, (basis // b) // 4)
+    cycle = max(1, basis // b)           # blocks per restart cycle
+    check = max(1, cycle // 4)           # blocks between Rayleigh-Ritz steps
     since = 0
     while True:
         # -- expand the next block: W = T V_j, orthogonalized against the basis
@@ -250,6 +251,10 @@ def search(solve: Callable, mass: Mass, n: int, *, want: int, key: Callable, blo
         order = np.argsort(key(all_theta), kind="stable")
         wanted = order[:want]
         stats.converged = int(done[wanted].sum())
+        # Rayleigh-Ritz more often as the wanted pairs converge (convergence is seen
+        # sooner, at a cost of one dense eigensolver per step)
+        share = stats.converged / max(want, 1)
+        check = max(1, cycle // (16 if share > 0.8 else 8 if share > 0.4 else 4))
         if progress is not None:
             progress(stats)
         if stats.converged == want or (full and stats.restarts >= max_restarts):
