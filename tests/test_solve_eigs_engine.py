@@ -257,7 +257,7 @@ def test_interval_gives_every_pair_in_it(boundary):
         expected = reference[(reference >= a - 1e-9) & (reference <= b)]
         np.testing.assert_allclose(lam, expected, rtol=1e-9, atol=1e-9)
         assert vec.shape == (len(V), len(expected))
-        assert "eigenvalues between" in info.verification
+        assert info.verification.startswith("Sylvester inertia")
     if boundary == "free":      # the constant mode at 0, included by a = 0
         lam, _ = solve.eigs(L, M, interval=(0.0, 10.0))
         assert lam[0] == 0.0

@@ -35,6 +35,13 @@ NULL_RTOL = 1e-10
 #: Up to this many free vertices, a search whose basis would hold most of them (many pairs
 #: of a small problem) is replaced by the dense problem.
 DENSE_LARGE = 6000
+#: The most pairs one search wants: more pairs are found in segments (spectrum slicing),
+#: each certified by a count at its end, whose factorization serves the next search.
+SEGMENT = 10**9
+#: Restarts after which a search of a sweep that is still short of its pairs returns the
+#: ones it found first, and the sweep moves its shift to them (an indefinite dual whose
+#: negative eigenvalues spread far below 0; many pairs).
+PATIENCE = 6
 #: Searches after the first when the inertia shows eigenvalues the search missed (each
 #: with twice the block and more wanted pairs).
 RETRIES = 2
@@ -169,7 +176,7 @@ def eigs(L, M, k: int | None = None, fixed=None, *, sigma: float | None = None,
         if interval is not None:
             interval = tuple(float(np.ldexp(x, eB - eA)) for x in interval)
     info = SolveInfo()
-    problem = _Problem(A, B, info, Stages("eigs", progress), progress)
+    problem = _Problem(A, B, info, Stages("eigs", progress), progress, eA - eB)
     with _amg.one_blas_thread():
         if interval is not None:
             lam, vec = problem.interval(*interval, solver)
@@ -181,7 +188,7 @@ def eigs(L, M, k: int | None = None, fixed=None, *, sigma: float | None = None,
         if problem.F is not None:
             for name, seconds in problem.F.info.phases.items():
                 info.phases[name] = info.phases.get(name, 0.0) + seconds
-        _check_pairs(A, B, lam, vec, info)
+        _check_pairs(A, B, lam, vec, info, eA - eB)
         vec = _signs(vec)
     with np.errstate(over="ignore"):
         lam, vec = np.ldexp(lam, eA - eB), np.ldexp(vec, -eB // 2)
@@ -297,8 +304,9 @@ class _Problem:
     """``A v = lambda B v`` (scaled) with the pieces every search shares: the exact null
     modes, the factorizations, the counts, the stages and the record."""
 
-    def __init__(self, A, B, info: SolveInfo, stages: Stages, progress) -> None:
+    def __init__(self, A, B, info: SolveInfo, stages: Stages, progress, unit: int = 0) -> None:
         self.A, self.B, self.info, self.stages, self.progress = A, B, info, stages, progress
+        self.unit = unit                  # eigenvalues in the caller's units: x 2^unit
         self.n = A.shape[0]
         self.X0 = _null_modes(A, B)
         self.mass = _lanczos.Mass(B)
@@ -316,6 +324,11 @@ class _Problem:
             return True
         raise OptionError(f"{want} pairs are more than half of the {self.n} free vertices: "
                           "ask for fewer, or an interval")
+
+    def show(self, x: float) -> str:
+        """An eigenvalue or shift as the caller reads it (in the units of ``L`` and ``M``)."""
+        with np.errstate(over="ignore", under="ignore"):
+            return f"{float(np.ldexp(x, self.unit)):.6g}"
 
     # -- the dense path ---------------------------------------------------------------
     def dense(self):
@@ -347,7 +360,7 @@ class _Problem:
                             self.progress, method="ldlt")
             self.info.ordering = self.F.info.ordering
         else:
-            self.stages(f"factorization at {s:.6g}")
+            self.stages(f"factorization at {self.show(s)}")
             self.F.refactor(self.A - s * self.B)
         return self.F
 
@@ -363,34 +376,28 @@ class _Problem:
             res = _checks.relative_residual(sp.csr_array(self.A - s * self.B), x, probe)
         if res > _checks.RESIDUAL_TOL:
             raise SolveError(f"the eigenvalue count could not be certified: the LDL^T of "
-                             f"A - s B at s = {s:.6g} is inaccurate (relative residual "
+                             f"A - s B at s = {self.show(s)} is inaccurate (relative residual "
                              f"{res:.1e})")
         return negative
 
-    def below_spectrum(self, k: int) -> float:
-        """The shift of the search for the k smallest, with its factorization in
-        ``self.F``: slightly below 0; with fewer than ``k`` eigenvalues below it (an
-        indefinite ``A``) the search finds those on both sides; with more, the shift goes
-        below Gershgorin's bound of the spectrum."""
-        shift = -1e-6 * self.scale
-        F = self.factor(shift)
-        negative = F.inertia()[0]
-        if negative:
-            self.info.fallbacks.append(f"{negative} eigenvalues lie below the shift {shift:.6g}")
-        if negative and (negative >= k or F._smallest_pivot() is not None):
-            bound = _lower_bound(self.A, self.B, self.mass.diagonal is not None)
-            shift = bound - 1e-3 * abs(bound) - 1e-12 * self.scale
-            if self.factor(shift).inertia()[0]:
-                raise SolveError("eigs could not find a shift below the spectrum (the "
-                                 "Gershgorin bound failed the inertia test)")
+    def bottom(self) -> float:
+        """A shift below the whole spectrum, proved by a count of 0: Gershgorin's bound."""
+        bound = _lower_bound(self.A, self.B, self.mass.diagonal is not None)
+        shift = bound - 1e-3 * abs(bound) - 1e-12 * self.scale
+        if self.count(shift):
+            raise SolveError("eigs could not find a shift below the spectrum (the Gershgorin "
+                             "bound failed the inertia test)")
         return shift
 
     # -- the search -------------------------------------------------------------------
-    def search(self, shift: float, want: int, key, solver: str, attempt: int):
-        """``want`` eigenpairs of the non-null part, first by ``key`` (of the eigenvalues),
-        by block Lanczos on ``(A - shift B)^-1 B``: ``(lam, vec)`` unsorted."""
+    def search(self, shift: float, want: int, key, solver: str, attempt: int,
+               deflate: np.ndarray | None = None, patience: int | None = None):
+        """``want`` eigenpairs ``B``-orthogonal to ``deflate`` (default: the null modes),
+        first by ``key`` (of the eigenvalues; :data:`_lanczos.FAR` and more: unwanted), by
+        block Lanczos on ``(A - shift B)^-1 B``: ``(lam, vec)`` unsorted."""
         info = self.info
-        n_free = self.n - self.X0.shape[1]
+        deflate = self.X0 if deflate is None else deflate
+        n_free = self.n - deflate.shape[1]
         block = _block(want) << attempt
         basis = -(-max(2 * want + 2 * block, want + 6 * block) // block) * block
         basis = min(basis, (n_free - 1) // block * block)
@@ -421,17 +428,18 @@ class _Problem:
             # pencil's residual relative to |A| + |lambda| |B| is at most SEARCH_TOL
             with np.errstate(divide="ignore"):
                 lam = np.abs(shift + 1.0 / theta)
+            # (far from the shift this may be out of reach: the sweep then moves its shift)
             return SEARCH_TOL * np.abs(theta) * np.minimum(
                 (self.scale + lam) / (self.scale + abs(shift)), 1.0)
 
         with info.phase("solve"):
             theta, Y, _, st = _lanczos.search(
                 solve, self.mass, self.n, want=want, key=keyed, block=block, basis=basis,
-                tol=tol, X0=self.X0, rng=np.random.default_rng(attempt),
-                progress=report)
+                tol=tol, X0=deflate, rng=np.random.default_rng(attempt),
+                progress=report, patience=patience)
         ticker.close(f"{st.converged}/{st.want} pairs converged, {st.solves} solves")
         info.iterations = (info.iterations or 0) + st.solves
-        if st.converged < want:
+        if st.converged < want and patience is None:
             raise _Missed(f"the search did not converge: {st.converged} of {want} pairs after "
                           f"{st.restarts} restarts")
         return shift + 1.0 / theta, np.asarray(Y)
@@ -467,55 +475,123 @@ class _Problem:
             return lam[:k], vec[:, :k]
         if solver == "amg":
             return self.smallest_amg(k)
-        shift = self.below_spectrum(k)
-        want = max(k - self.X0.shape[1], 0)
+        start = -1e-6 * self.scale
+        negative = self.count(start)
+        if negative:
+            # an indefinite A: the sweep starts below the spectrum (the eigenvalues below
+            # 0 can lie far below, where a search from near 0 cannot resolve them)
+            self.info.fallbacks.append(f"{negative} eigenvalues lie below the shift "
+                                       f"{self.show(start)}")
+            start = self.bottom()
+        return self.sweep(start, 0, k, None, None, solver)
 
-        def once(attempt):
-            if attempt:
-                self.factor(shift)
-            guard = min(max(2, want // 50), 8) + (8 * attempt)
-            lam, vec = (self.search(shift, want + guard, lambda x: x, solver, attempt) if want
-                        else (np.zeros(0), np.zeros((self.n, 0))))
-            lam, vec = self.found(lam, vec)
-            self.stages("inertia proof")
-            self.prove_smallest(lam, k)
-            return lam[:k], vec[:, :k]
+    def sweep(self, lo: float, nlo: int, k: int, hi: float | None, nhi: int | None,
+              solver: str):
+        """The ``k`` smallest eigenpairs above ``lo`` (below ``hi`` when given), ascending;
+        ``nlo`` (``nhi``) eigenvalues lie below ``lo`` (``hi``). Segments of at most
+        :data:`SEGMENT` pairs: a search at the segment's start ``s`` (its factorization in
+        ``self.F``) for the pairs just above it, the previous segment's pairs deflated; the
+        next start ``s'`` in a gap above the values found, where a count must find exactly
+        the eigenvalues below ``s'`` found so far (and its factorization serves the next
+        search). Spectrum slicing: every segment is certified as it is computed, and the
+        basis holds one segment."""
+        shifts = [lo]
+        lam_all, vec_all = [np.zeros(0)], [np.zeros((self.n, 0))]
+        s, ns, need = lo, nlo, k
+        last = np.zeros((self.n, 0))            # the previous segment's vectors
+        note = ""
+        while need > 0:
+            m = min(need, SEGMENT)
+            zeros = self.X0.shape[1] if s < 0 else 0   # null modes above s (0 < the next)
 
-        return self.retried(once)
+            def once(attempt, s=s, ns=ns, m=m, zeros=zeros, last=last, need=need):
+                if attempt:
+                    self.factor(s)
+                guard = min(max(2, m // 50), 8) + 8 * attempt
+                above = lambda lam: np.where(lam > s, lam - s, _lanczos.FAR + s - lam)  # noqa: E731
+                want = max(m - zeros, 0) + guard
+                lam, vec = self.search(s, want, above, solver, attempt,
+                                       deflate=np.hstack([self.X0, last]), patience=PATIENCE)
+                keep = lam > s
+                lam, vec = lam[keep], vec[:, keep]
+                if zeros and (lam > 0).any():      # the null modes lie among the values
+                    lam, vec = self.found(lam, vec)
+                order = np.argsort(lam, kind="stable")
+                lam, vec = lam[order], vec[:, order]
+                # pairs far from the shift may miss the accuracy rule: the sweep takes the
+                # ones before the first that does, and moves its shift to the others
+                good = _residuals(self.A, self.B, lam, vec) <= _checks.RESIDUAL_TOL / 16
+                usable = int(np.argmin(good)) if not good.all() else len(lam)
+                return self.segment(s, ns, lam, vec, m, need, hi, nhi, usable)
 
-    def prove_smallest(self, lam: np.ndarray, k: int) -> None:
-        """Sylvester's proof that ``lam[:k]`` (ascending, residual-checked) are the k
-        smallest: a count in a gap above the cluster of ``lam[k-1]`` finds exactly the
-        values below it; or, when that cluster reaches past the values found (``k`` cuts
-        a cluster), a count just below the cluster finds exactly those below it and one
-        just above it at least k."""
-        top = lam[k - 1]
-        delta = self.gap(lam[:k], top)
-        end = k
-        while end < len(lam) and lam[end] - lam[end - 1] <= delta:
-            end += 1
-        s = (lam[end - 1] + lam[end]) / 2 if end < len(lam) else lam[end - 1] + delta
-        above = self.count(s)
-        if above == end:
-            self.info.verification = (f"Sylvester inertia: the LDL^T of A - s B at s = "
-                                      f"{s:.6g} has {end} negative pivots")
-            return
-        if above < end:
-            raise SolveError(f"the k smallest could not be certified: only {above} eigenvalues "
-                             f"lie below s = {s:.6g}, {end} were found")
-        if end < len(lam):
-            raise _Missed(f"the k smallest could not be certified: {above} eigenvalues lie "
-                          f"below s = {s:.6g}, but {end} were found (the search missed some)")
-        start = int(np.searchsorted(lam, top - delta))
-        low = (lam[start - 1] + lam[start]) / 2 if start else lam[0] - delta
-        below = self.count(low)
-        if below != start:
-            raise _Missed(f"the k smallest could not be certified: {below} eigenvalues lie "
-                          f"below s = {low:.6g}, but {start} were found (the search missed some)")
+            lam, vec, s_next, n_next, note = self.retried(once)
+            lam_all.append(lam)
+            vec_all.append(vec)
+            shifts.append(s_next)
+            need -= len(lam)
+            last = vec[:, lam != 0] if zeros else vec
+            s, ns = s_next, n_next
+            if hi is not None and s >= hi:
+                break
+        lam = np.concatenate(lam_all)
+        vec = np.hstack(vec_all)
+        lam, vec = self.separate(lam, vec)
+        total = len(lam)
+        lam, vec = lam[:k], vec[:, :k]
         self.info.verification = (
-            f"Sylvester inertia: {below} negative pivots at s = {low:.6g} and {above} at s = "
-            f"{s:.6g} (a cluster of {above - below} values at {top:.6g}, {k - start} of them "
-            "returned)")
+            f"Sylvester inertia: the LDL^T of A - s B at s = {self.show(s)} has {ns} negative "
+            f"pivots, {ns - nlo} above s = {self.show(lo)}, and all {total} were found (counts at "
+            f"{len(shifts)} shifts){note}")
+        return lam, vec
+
+    def segment(self, s, ns, lam, vec, m, need, hi, nhi, usable=None):
+        """One segment of :meth:`sweep`: ``(lam, vec, s', n', note)`` for the values above
+        ``s`` found (ascending; ``m`` wanted, ``need`` still missing in the sweep; the first
+        ``usable`` accurate enough), or _Missed when a count shows values the search did
+        not return."""
+        usable = len(lam) if usable is None else usable
+        m = min(m, usable)            # a search that stalled: the pairs it found first
+        if m:
+            delta = self.gap(lam[:m], lam[m - 1])
+            end = m
+            while end < len(lam) and lam[end] - lam[end - 1] <= delta:
+                end += 1
+            if end > usable:          # a cluster with an inaccurate member: all or none
+                m = end = int(np.searchsorted(lam, lam[m - 1] - delta))
+        if not m:
+            raise _Missed(f"the search found no accurate pair above s = {self.show(s)}")
+        delta = self.gap(lam[:m], lam[m - 1])
+        if (hi is not None and (lam[end - 1] >= hi or end >= need)
+                and (lam < hi).sum() <= usable):
+            end = int((lam < hi).sum())
+            s_next, n_next = hi, nhi
+        else:
+            s_next = (lam[end - 1] + lam[end]) / 2 if end < len(lam) else lam[end - 1] + delta
+            n_next = self.count(s_next)
+        between = f"between s = {self.show(s)} and {self.show(s_next)}"
+        if n_next - ns == end:
+            return lam[:end], vec[:, :end], s_next, n_next, ""
+        if n_next - ns < end:
+            raise SolveError(f"the eigenvalues could not be certified: {n_next - ns} lie "
+                             f"{between}, {end} were found")
+        if end < len(lam) or hi is not None:
+            raise _Missed(f"the eigenvalues could not be certified: {n_next - ns} lie "
+                          f"{between}, but {end} were found (the search missed some)")
+        # the cluster of lam[m-1] reaches past the values found (m cuts a cluster): a count
+        # just below the cluster must find exactly the values below it; the others lie
+        # within the cluster's width
+        top = lam[m - 1]
+        low = top - delta
+        start = int(np.searchsorted(lam, low))
+        below = self.count(low)
+        if below - ns != start:
+            raise _Missed(f"the eigenvalues could not be certified: {below - ns} lie between "
+                          f"s = {self.show(s)} and {self.show(low)}, but {start} were found "
+                          "(the search missed some)")
+        note = (f"; a cluster of {n_next - below} values at {self.show(top)}, {m - start} of "
+                "them returned")
+        self.factor(s_next)
+        return lam[:m], vec[:, :m], s_next, n_next, note
 
     def smallest_amg(self, k: int):
         sizes = sorted({k, min(k + 4, self.n - 1), min(2 * k + 8, self.n - 1)})
@@ -525,7 +601,9 @@ class _Problem:
             lam, vec = _lobpcg(self.A, self.B, m - self.X0.shape[1], self.info, self.X0)
             lam, vec = self.found(lam, vec)
             self.stages("inertia proof")
-            self.prove_smallest(lam, k)
+            lam, vec, s, n, note = self.segment(-np.inf, 0, lam, vec, k, k, None, None)
+            self.info.verification = (f"Sylvester inertia: the LDL^T of A - s B at s = "
+                                      f"{self.show(s)} has {n} negative pivots, all found{note}")
             return lam[:k], vec[:, :k]
 
         return self.retried(once)
@@ -544,8 +622,8 @@ class _Problem:
         shift = sigma
         if F._smallest_pivot() is not None:     # sigma is (nearly) an eigenvalue
             shift = sigma + self.gap(np.array([sigma]), sigma)
-            self.info.fallbacks.append(f"sigma = {sigma:.6g} is (nearly) an eigenvalue: the "
-                                       f"search shifts to {shift:.6g}")
+            self.info.fallbacks.append(f"sigma = {self.show(sigma)} is (nearly) an eigenvalue: the "
+                                       f"search shifts to {self.show(shift)}")
 
         def once(attempt):
             self.factor(shift)
@@ -560,16 +638,16 @@ class _Problem:
             self.stages("inertia proof")
             inside = int(((lam > lo) & (lam < hi)).sum())
             counted = self.counted(lo, hi)
+            between = f"between s = {self.show(lo)} and {self.show(hi)}"
             if counted < inside:
                 raise SolveError(f"the k nearest could not be certified: {counted} eigenvalues "
-                                 f"lie between {lo:.6g} and {hi:.6g}, {inside} were found")
+                                 f"lie {between}, {inside} were found")
             if counted > inside:
                 raise _Missed(f"the k nearest could not be certified: {counted} eigenvalues "
-                              f"lie between {lo:.6g} and {hi:.6g}, but {inside} were found "
-                              "(the search missed some)")
+                              f"lie {between}, but {inside} were found (the search missed some)")
             self.info.verification = (
-                f"Sylvester inertia: {counted} eigenvalues between s = {lo:.6g} and {hi:.6g} "
-                "(negative pivots of LDL^T factorizations at both), all found")
+                f"Sylvester inertia: {counted} eigenvalues {between} (negative pivots of LDL^T "
+                "factorizations at both), all found")
             return lam[pick], vec[:, pick]
 
         return self.retried(once)
@@ -582,33 +660,40 @@ class _Problem:
         delta = self.gap(np.array([a, b]), max(abs(a), abs(b)))
         lo, hi = a - delta, b + delta
         self.stages("inertia count")
-        counted = self.counted(lo, hi)
-        if self.dense_enough(counted):
+        nhi, nlo = self.count(hi), self.count(lo)
+        if self.dense_enough(nhi - nlo):
             lam, vec = self.dense()
             pick = (lam >= a) & (lam <= b)
             return lam[pick], vec[:, pick]
-        self.info.verification = (f"Sylvester inertia: {counted} eigenvalues between s = "
-                                  f"{lo:.6g} and {hi:.6g}, all found")
-        want = counted - int(lo < 0 < hi) * self.X0.shape[1]
-        sigma = (lo + hi) / 2
+        if nhi == nlo:
+            self.info.verification = (f"Sylvester inertia: {nlo} negative pivots at s = "
+                                      f"{self.show(lo)} and at {self.show(hi)}: no eigenvalue "
+                                      "between")
+            return np.zeros(0), np.zeros((self.n, 0))
+        lam, vec = self.sweep(lo, nlo, nhi - nlo, hi, nhi, solver)
+        pick = (lam >= a) & (lam <= b)
+        return lam[pick], vec[:, pick]
 
-        def once(attempt):
-            if want:
-                self.factor(sigma)
-                lam, vec = self.search(sigma, want, lambda x: np.abs(x - sigma), solver,
-                                       attempt)
-            else:
-                lam, vec = np.zeros(0), np.zeros((self.n, 0))
-            lam, vec = self.found(lam, vec)
-            inside = int(((lam > lo) & (lam < hi)).sum())
-            if inside != counted:
-                raise _Missed(f"the pairs in the interval could not be certified: {counted} "
-                              f"eigenvalues lie between {lo:.6g} and {hi:.6g}, but {inside} "
-                              "were found (the search missed some)")
-            pick = (lam >= a) & (lam <= b)
-            return lam[pick], vec[:, pick]
+    def separate(self, lam, vec):
+        """Pairs from different slices made ``B``-orthonormal where they are not (close
+        eigenvalues on both sides of a slice's end): Rayleigh-Ritz on the pairs involved."""
+        if len(lam) < 2:
+            return lam, vec
+        G = vec.T @ (self.B @ vec)
+        off = np.abs(G - np.eye(len(lam))) > 1e-12
+        bad = np.flatnonzero(off.any(axis=0))
+        if not len(bad):
+            return lam, vec
+        from scipy.linalg import eigh
 
-        return self.retried(once)
+        Y = vec[:, bad]
+        theta, U = eigh(Y.T @ (self.A @ Y), Y.T @ (self.B @ Y))
+        vec = vec.copy()
+        vec[:, bad] = Y @ U
+        lam = lam.copy()
+        lam[bad] = theta
+        order = np.argsort(lam, kind="stable")
+        return lam[order], vec[:, order]
 
 
 def _block(want: int) -> int:
@@ -678,18 +763,27 @@ def _lobpcg(A, B, m, info, X0):
     return lam, vec
 
 
-def _check_pairs(A, B, lam, vec, info):
-    """SolveError unless every pair has ``|A v - lambda B v|_inf <= RESIDUAL_TOL (|A|_inf +
-    |lambda| |B|_inf) |v|_inf``; the largest relative residual goes into ``info``."""
+def _residuals(A, B, lam, vec) -> np.ndarray:
+    """``|A v - lambda B v|_inf / ((|A|_inf + |lambda| |B|_inf) |v|_inf)`` of each pair (inf
+    where not finite): the one accuracy rule of the pairs."""
     if not len(lam):
-        return
+        return np.zeros(0)
     norm_a, norm_b = _checks.row_norm(A), _checks.row_norm(B)
     scale = (norm_a + np.abs(lam) * norm_b) * np.abs(vec).max(axis=0)
     residual = np.abs(A @ vec - (B @ vec) * lam[None, :]).max(axis=0)
     relative = residual / np.maximum(scale, 1e-300)
+    return np.where(np.isfinite(lam) & np.isfinite(relative), relative, np.inf)
+
+
+def _check_pairs(A, B, lam, vec, info, unit: int = 0):
+    """SolveError unless every pair's relative residual (:func:`_residuals`) is at most
+    RESIDUAL_TOL; the largest goes into ``info``."""
+    relative = _residuals(A, B, lam, vec)
+    if not len(lam):
+        return
     info.residual = max(info.residual, float(relative.max()))
-    bad = ~(np.isfinite(lam) & (relative <= _checks.RESIDUAL_TOL))
+    bad = ~(relative <= _checks.RESIDUAL_TOL)
     if bad.any():
         j = int(np.argmax(bad))
-        raise SolveError(f"eigenpair {j} (lambda = {lam[j]:.6g}) has relative residual "
-                         f"{relative[j]:.1e}")
+        raise SolveError(f"eigenpair {j} (lambda = {np.ldexp(lam[j], unit):.6g}) has relative "
+                         f"residual {relative[j]:.1e}")

@@ -46,6 +46,9 @@ CHUNK = 8192
 #: fraction of its norm before is taken as spanned by the basis (two passes of classical
 #: Gram-Schmidt leave an error of a few units in the last place of the column).
 SPANNED = 1e-14
+#: Keys at or above this mark Ritz values the caller does not want at all (outside an
+#: interval): they are ordered among themselves but never count as found.
+FAR = 1e300
 #: An SVQB sweep whose Gram matrix (scaled to unit diagonal) has a condition number above
 #: ``1 / ILL`` is followed by one more orthogonalization against the basis.
 ILL = 1e-8
@@ -199,10 +202,12 @@ class Basis:
 
 def search(solve: Callable, mass: Mass, n: int, *, want: int, key: Callable, block: int,
            basis: int, tol: Callable, X0: np.ndarray | None, rng,
-           progress: Callable | None = None, max_restarts: int = 100):
+           progress: Callable | None = None, max_restarts: int = 100,
+           patience: int | None = None):
     """The ``want`` Ritz pairs of ``T = solve(B .)`` first in the order of ``key`` (a
-    function of an array of Ritz values ``theta`` giving sort keys, smaller first),
-    converged to ``|T y - theta y|_B <= tol(theta)``.
+    function of an array of Ritz values ``theta`` giving sort keys, smaller first; keys
+    of at least :data:`FAR` are never wanted), converged to ``|T y - theta y|_B <=
+    tol(theta)``.
 
     ``solve(Z)`` returns ``(A - s B)^-1 Z`` for an (n, b) block; ``mass`` multiplies by
     ``B``; ``X0`` (n, c) are ``B``-orthonormal vectors to stay orthogonal to; ``basis`` is
@@ -210,6 +215,9 @@ def search(solve: Callable, mass: Mass, n: int, *, want: int, key: Callable, blo
     for the starting block; ``progress(stats)`` is called after each Rayleigh-Ritz step.
     Returns ``(theta (want,), Y (n, want) B-orthonormal, residuals (want,), Stats)``; after
     ``max_restarts`` restarts the pairs are returned as they are (the caller checks them).
+    With ``patience``, a search still short of ``want`` after that many restarts returns
+    the converged pairs that come first by ``key`` (at least one block of them), for a
+    caller that moves its shift to them (spectrum slicing).
     """
     b = block
     stats = Stats(want=want)
@@ -248,9 +256,11 @@ def search(solve: Callable, mass: Mass, n: int, *, want: int, key: Callable, blo
         res = np.linalg.norm(R @ U[-b:], axis=0)
         all_theta = np.concatenate([np.diag(H)[:nlock], theta])
         done = np.concatenate([np.ones(nlock, dtype=bool), res <= tol(theta)])
-        order = np.argsort(key(all_theta), kind="stable")
+        keys = key(all_theta)
+        order = np.argsort(keys, kind="stable")
         wanted = order[:want]
-        stats.converged = int(done[wanted].sum())
+        # a wanted pair counts when converged and wanted indeed (a key below FAR)
+        stats.converged = int((done[wanted] & (keys[wanted] < FAR)).sum())
         # Rayleigh-Ritz more often as the wanted pairs converge (convergence is seen
         # sooner, at a cost of one dense eigensolver per step)
         share = stats.converged / max(want, 1)
@@ -259,6 +269,13 @@ def search(solve: Callable, mass: Mass, n: int, *, want: int, key: Callable, blo
             progress(stats)
         if stats.converged == want or (full and stats.restarts >= max_restarts):
             break
+        if full and patience is not None and stats.restarts >= patience:
+            run = np.cumsum(~(done[wanted] & (keys[wanted] < FAR)))
+            prefix = int((run == 0).sum())
+            if prefix >= min(b, want):
+                wanted = wanted[:prefix]
+                stats.converged = prefix
+                break
         if not full:
             continue
         # -- restart: lock the converged among the first (want + b), keep the wanted and
