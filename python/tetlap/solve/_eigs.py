@@ -24,7 +24,7 @@ DENSE_MAX = 400
 #: The search stops when every wanted Ritz pair of the shift-inverted operator ``T`` has
 #: ``|T y - theta y|_B <= SEARCH_TOL |theta|`` (pair residuals of the pencil then near
 #: 1e-13; every pair is checked against :data:`tetlap.solve.RESIDUAL_TOL` afterwards).
-SEARCH_TOL = 1e-10
+SEARCH_TOL = 3e-11
 #: Eigenvalues closer than this (relative to the largest magnitude involved) are a
 #: cluster: no count is placed between them.
 CLUSTER_RTOL = 1e-6
@@ -188,7 +188,7 @@ def eigs(L, M, k: int | None = None, fixed=None, *, sigma: float | None = None,
         if problem.F is not None:
             for name, seconds in problem.F.info.phases.items():
                 info.phases[name] = info.phases.get(name, 0.0) + seconds
-        _check_pairs(A, B, lam, vec, info, eA - eB)
+        _check_pairs(A, B, lam, vec, info, eA - eB, problem.residuals)
         vec = _signs(vec)
     with np.errstate(over="ignore"):
         lam, vec = np.ldexp(lam, eA - eB), np.ldexp(vec, -eB // 2)
@@ -311,6 +311,7 @@ class _Problem:
         self.X0 = _null_modes(A, B)
         self.mass = _lanczos.Mass(B)
         self.F: Factor | None = None      # the core's factorization (search and counts)
+        self.residuals = None             # of the pairs returned, when already computed
         self.scale = float(np.abs(A.data).max(initial=0.0) / np.abs(B.data).max())
 
     def dense_enough(self, want: int) -> bool:
@@ -368,8 +369,8 @@ class _Problem:
         """Eigenvalues below ``s``: the negative pivots of an ``LDL^T`` of ``A - s B``,
         whose accuracy a solve of a random right-hand side checks (SolveError if it
         fails)."""
+        F = self.factor(s)
         with self.info.phase("inertia"):
-            F = self.factor(s)
             negative = F.inertia()[0]
             probe = np.random.default_rng(1).standard_normal(self.n)
             x = F._raw(probe[:, None])[:, 0]
@@ -496,7 +497,7 @@ class _Problem:
         search). Spectrum slicing: every segment is certified as it is computed, and the
         basis holds one segment."""
         shifts = [lo]
-        lam_all, vec_all = [np.zeros(0)], [np.zeros((self.n, 0))]
+        lam_all, vec_all, res_all = [np.zeros(0)], [np.zeros((self.n, 0))], [np.zeros(0)]
         s, ns, need = lo, nlo, k
         last = np.zeros((self.n, 0))            # the previous segment's vectors
         note = ""
@@ -520,13 +521,17 @@ class _Problem:
                 lam, vec = lam[order], vec[:, order]
                 # pairs far from the shift may miss the accuracy rule: the sweep takes the
                 # ones before the first that does, and moves its shift to the others
-                good = _residuals(self.A, self.B, lam, vec) <= _checks.RESIDUAL_TOL / 16
+                res = _residuals(self.A, self.B, lam, vec)
+                good = res <= _checks.RESIDUAL_TOL / 16
                 usable = int(np.argmin(good)) if not good.all() else len(lam)
-                return self.segment(s, ns, lam, vec, m, need, hi, nhi, usable)
+                lam, vec, s_next, n_next, note = self.segment(s, ns, lam, vec, m, need, hi,
+                                                              nhi, usable)
+                return lam, vec, res[:len(lam)], s_next, n_next, note
 
-            lam, vec, s_next, n_next, note = self.retried(once)
+            lam, vec, res, s_next, n_next, note = self.retried(once)
             lam_all.append(lam)
             vec_all.append(vec)
+            res_all.append(res)
             shifts.append(s_next)
             need -= len(lam)
             last = vec[:, lam != 0] if zeros else vec
@@ -535,9 +540,12 @@ class _Problem:
                 break
         lam = np.concatenate(lam_all)
         vec = np.hstack(vec_all)
-        lam, vec = self.separate(lam, vec)
+        res = np.concatenate(res_all)
+        if len(shifts) > 2:
+            lam, vec, res = self.separate(lam, vec, res)
         total = len(lam)
         lam, vec = lam[:k], vec[:, :k]
+        self.residuals = res[:k]
         self.info.verification = (
             f"Sylvester inertia: the LDL^T of A - s B at s = {self.show(s)} has {ns} negative "
             f"pivots, {ns - nlo} above s = {self.show(lo)}, and all {total} were found (counts at "
@@ -674,31 +682,32 @@ class _Problem:
         pick = (lam >= a) & (lam <= b)
         return lam[pick], vec[:, pick]
 
-    def separate(self, lam, vec):
-        """Pairs from different slices made ``B``-orthonormal where they are not (close
-        eigenvalues on both sides of a slice's end): Rayleigh-Ritz on the pairs involved."""
+    def separate(self, lam, vec, res):
+        """Pairs from different segments made ``B``-orthonormal where they are not (close
+        eigenvalues on both sides of a shift): Rayleigh-Ritz on the pairs involved, whose
+        residuals are computed anew."""
         if len(lam) < 2:
-            return lam, vec
+            return lam, vec, res
         G = vec.T @ (self.B @ vec)
         off = np.abs(G - np.eye(len(lam))) > 1e-12
         bad = np.flatnonzero(off.any(axis=0))
         if not len(bad):
-            return lam, vec
+            return lam, vec, res
         from scipy.linalg import eigh
 
         Y = vec[:, bad]
         theta, U = eigh(Y.T @ (self.A @ Y), Y.T @ (self.B @ Y))
-        vec = vec.copy()
+        vec, lam, res = vec.copy(), lam.copy(), res.copy()
         vec[:, bad] = Y @ U
-        lam = lam.copy()
         lam[bad] = theta
+        res[bad] = _residuals(self.A, self.B, lam[bad], vec[:, bad])
         order = np.argsort(lam, kind="stable")
-        return lam[order], vec[:, order]
+        return lam[order], vec[:, order], res[order]
 
 
 def _block(want: int) -> int:
     """The block size of the search for ``want`` pairs."""
-    return 4 if want <= 16 else 8 if want <= 400 else 16
+    return 4 if want <= 16 else 8 if want <= 64 else 16
 
 
 def _lower_bound(A, B, diagonal: bool) -> float:
@@ -775,10 +784,10 @@ def _residuals(A, B, lam, vec) -> np.ndarray:
     return np.where(np.isfinite(lam) & np.isfinite(relative), relative, np.inf)
 
 
-def _check_pairs(A, B, lam, vec, info, unit: int = 0):
-    """SolveError unless every pair's relative residual (:func:`_residuals`) is at most
-    RESIDUAL_TOL; the largest goes into ``info``."""
-    relative = _residuals(A, B, lam, vec)
+def _check_pairs(A, B, lam, vec, info, unit: int = 0, relative=None):
+    """SolveError unless every pair's relative residual (:func:`_residuals`, computed here
+    unless given) is at most RESIDUAL_TOL; the largest goes into ``info``."""
+    relative = _residuals(A, B, lam, vec) if relative is None else relative
     if not len(lam):
         return
     info.residual = max(info.residual, float(relative.max()))

@@ -289,8 +289,9 @@ def search(solve: Callable, mass: Mass, n: int, *, want: int, key: Callable, blo
         rest = rest[:max(min(room, missing + (room - missing) // 2), 0)]
         sel = np.array(lock + rest, dtype=np.int64) - nlock
         Y = times(V[:, act], U[:, sel])
+        BY = None if space.BV is None else times(space.BV[:, act], U[:, sel])
         l = nlock + len(sel)
-        space.store(nlock, Y, None)
+        space.store(nlock, Y, BY)
         space.store(l, Q, BQ)
         d = np.concatenate([np.diag(H)[:nlock], theta[sel]])
         S = R @ U[-b:, sel]                                    # T Y = Y Theta + Q S
