@@ -345,3 +345,41 @@ def test_many_pairs_on_a_larger_mesh_agree_with_arpack():
     np.testing.assert_allclose(lam, ref, rtol=1e-9, atol=1e-9 * ref[-1])
     np.testing.assert_allclose(vec.T @ (M @ vec), np.eye(300), atol=1e-10)
     assert info.verification.startswith("Sylvester")
+
+
+SEARCH_PROBE = """
+import signal; signal.signal(signal.SIGINT, signal.default_int_handler)
+import sys, time, numpy as np, tetlap
+V, T = tetlap.meshes.ball(30000)
+L, M = tetlap.operators(V, T, "primal", "fem")
+print("ready", flush=True)
+try:
+    for _ in range(100):
+        tetlap.solve.eigs(L, M, 200)
+except KeyboardInterrupt:
+    print("interrupted", time.time(), flush=True)
+    sys.exit(3)
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("delay", [6.0, 12.0])
+def test_the_search_answers_ctrl_c_within_a_second(delay):
+    """Inside the block Lanczos phase (block solves, tall products, the dense eigensolver),
+    not only in the factorization (tests/test_solve_interrupt.py)."""
+    import signal
+    import time
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_interrupt import child, line
+
+    with child(SEARCH_PROBE) as p:
+        assert line(p, 600) == "ready"
+        time.sleep(delay)
+        sent = time.time()
+        p.send_signal(signal.SIGINT)
+        words = line(p, 120).split()
+        assert words[:1] == ["interrupted"], words
+        assert p.wait(timeout=120) == 3
+        assert float(words[1]) - sent < 1.0, float(words[1]) - sent

@@ -89,7 +89,7 @@ def run(out) -> None:
     try:
         import tetgen  # noqa: F401
 
-        steps = [0.3, 0.2] if quick else [0.2, 0.12, 0.08, 0.05, 0.035, 0.025]
+        steps = [0.15, 0.1] if quick else [0.2, 0.12, 0.08, 0.05, 0.035, 0.028]
         jobs = [("optimized Delaunay (TetGen)", h) for h in steps] + jobs
     except ImportError:
         out.say(f"optimized Delaunay meshes skipped: tetgen is not installed: "
