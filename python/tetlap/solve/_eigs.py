@@ -812,7 +812,10 @@ def _residuals(A, B, lam, vec) -> np.ndarray:
         return np.zeros(0)
     norm_a, norm_b = _checks.row_norm(A), _checks.row_norm(B)
     scale = (norm_a + np.abs(lam) * norm_b) * np.abs(vec).max(axis=0)
-    residual = np.abs(A @ vec - (B @ vec) * lam[None, :]).max(axis=0)
+    residual = np.empty(len(lam))
+    for j in range(0, len(lam), 16):        # column blocks: Ctrl-C is answered between
+        X = vec[:, j:j + 16]
+        residual[j:j + 16] = np.abs(A @ X - (B @ X) * lam[None, j:j + 16]).max(axis=0)
     relative = residual / np.maximum(scale, 1e-300)
     return np.where(np.isfinite(lam) & np.isfinite(relative), relative, np.inf)
 

@@ -85,6 +85,13 @@ def times(V: np.ndarray, U: np.ndarray) -> np.ndarray:
     return out
 
 
+def rotate(X: np.ndarray, cols: slice, U: np.ndarray, at: int) -> None:
+    """``X[:, at:at + q] = X[:, cols] U`` in place, row chunk by row chunk (the same bits
+    as :func:`times`, without an (n, q) temporary)."""
+    for r in range(0, X.shape[0], CHUNK):
+        X[r:r + CHUNK, at:at + U.shape[1]] = X[r:r + CHUNK, cols] @ U
+
+
 class Mass:
     """``B X`` for tall blocks: a diagonal ``B`` as a vector, else the sparse matrix."""
 
@@ -288,10 +295,9 @@ def search(solve: Callable, mass: Mass, n: int, *, want: int, key: Callable, blo
         rest = [int(i) for i in order if i >= nlock and int(i) not in taken]
         rest = rest[:max(min(room, missing + (room - missing) // 2), 0)]
         sel = np.array(lock + rest, dtype=np.int64) - nlock
-        Y = times(V[:, act], U[:, sel])
-        BY = None if space.BV is None else times(space.BV[:, act], U[:, sel])
         l = nlock + len(sel)
-        space.store(nlock, Y, BY)
+        for X in (V,) if space.BV is None else (V, space.BV):
+            rotate(X, act, U[:, sel], nlock)            # X[:, nlock:l] = X[:, act] U
         space.store(l, Q, BQ)
         d = np.concatenate([np.diag(H)[:nlock], theta[sel]])
         S = R @ U[-b:, sel]                                    # T Y = Y Theta + Q S
