@@ -12,6 +12,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import _arrays, _options
+from .._interrupt import interruptible
 from .._progress import Stages
 from ..errors import NonFiniteError, OptionError, SolveError
 from . import _amg, _checks, _lanczos
@@ -439,7 +440,7 @@ class _Problem:
             from scipy.sparse.linalg import splu
 
             with info.phase("factorization"):
-                lu = splu(sp.csc_array(self.A - shift * self.B))
+                lu = interruptible(splu, sp.csc_array(self.A - shift * self.B))
             solve = lu.solve
             info.solver, info.method = "lu", "block shift-invert Lanczos on SuperLU"
         else:
