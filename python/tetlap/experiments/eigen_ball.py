@@ -58,7 +58,7 @@ def tetgen_ball(h: float):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         V, T = tetgen.TetGen(sphere).tetrahedralize(
-            quality=True, minratio=1.4, mindihedral=10.0,
+            quality=True, minratio=1.4, mindihedral=10.0, fixedvolume=True,
             maxvolume=h**3 / (6 * np.sqrt(2)))[:2]
     V, T = meshes.compact(np.asarray(V, dtype=np.float64), np.asarray(T, dtype=np.int64))
     return V, meshes.orient(V, T)
@@ -89,7 +89,7 @@ def run(out) -> None:
     try:
         import tetgen  # noqa: F401
 
-        steps = [0.15, 0.1] if quick else [0.2, 0.12, 0.08, 0.05, 0.035, 0.028]
+        steps = [0.3, 0.2] if quick else [0.2, 0.12, 0.08, 0.055, 0.04]
         jobs = [("optimized Delaunay (TetGen)", h) for h in steps] + jobs
     except ImportError:
         out.say(f"optimized Delaunay meshes skipped: tetgen is not installed: "
