@@ -51,7 +51,7 @@ def tetgen_ball(h: float):
                           f"{_extras.hint('experiments')}") from None
     import warnings
 
-    nsub = max(1, int(round(np.log2(1.1 / h))))
+    nsub = max(1, int(round(np.log2(1.1 / h))))   # icosphere edges about 1.1 / 2^nsub
     sphere = pv.Icosphere(radius=1.0, nsub=nsub)
     P = np.asarray(sphere.points, dtype=np.float64)
     sphere.points = P / np.linalg.norm(P, axis=1)[:, None]
@@ -89,7 +89,8 @@ def run(out) -> None:
     try:
         import tetgen  # noqa: F401
 
-        steps = [0.3, 0.2] if quick else [0.2, 0.12, 0.08, 0.055, 0.04]
+        # icosphere edges 1.1 / 2^j: the surface and the inside refined together
+        steps = [1.1 / 2**j for j in ((2, 3) if quick else (2, 3, 4, 5))]
         jobs = [("optimized Delaunay (TetGen)", h) for h in steps] + jobs
     except ImportError:
         out.say(f"optimized Delaunay meshes skipped: tetgen is not installed: "
