@@ -168,3 +168,24 @@ def test_progress_reports_the_solves_of_the_search(large, capsys):
     _, _, info = solve.eigs(L, M, 3, fixed, progress=True, return_info=True)
     err = capsys.readouterr().err
     assert f"{info.iterations} solves" in err
+
+
+@pytest.mark.parametrize("n_fixed", [0, 1])
+def test_too_few_free_vertices_are_named(small, n_fixed):
+    """An empty problem, or one whose vertices are all fixed but one: a message that
+    counts the free vertices (it said "k between 1 and -1")."""
+    V, T, L, M, _ = small
+    if n_fixed == 0:
+        L, M, fixed = sp.csr_array((0, 0)), sp.csr_array((0, 0)), None
+    else:
+        fixed = np.ones(len(V), dtype=bool)
+        fixed[np.unique(T)[0]] = False
+    with pytest.raises(tetlap.OptionError, match=f"at least 2 free vertices.*got {1 - (n_fixed == 0)}"):
+        solve.eigs(L, M, 1, fixed)
+
+
+@pytest.mark.parametrize("value", [1, "yes", None])
+def test_return_info_is_a_flag(small, value):
+    V, T, L, M, fixed = small
+    with pytest.raises(tetlap.OptionError, match="return_info must be True or False"):
+        solve.eigs(L, M, 3, fixed, return_info=value)

@@ -160,6 +160,10 @@ def eigs(L, M, k: int | None = None, fixed=None, *, sigma: float | None = None,
     fixed = np.zeros(n, dtype=bool) if fixed is None else _checks.mask(fixed, n)
     referenced = _in_elements(L)
     free = np.flatnonzero(~fixed & referenced)
+    return_info = _checks.flag(return_info, "return_info", unset=False)
+    if len(free) < 2:
+        raise OptionError(f"eigs needs at least 2 free vertices (in an element and not fixed), "
+                          f"got {len(free)}: the matrices are {n}x{n}")
     if interval is not None:
         if k is not None or sigma is not None:
             raise OptionError("interval= returns every pair in the interval: pass neither k "
