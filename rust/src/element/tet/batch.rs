@@ -17,6 +17,7 @@
 
 use super::{EDGES, OPPOSITE, WELL_SHAPED};
 use crate::element::exact::{DET_ERROR, DET_RTOL};
+use crate::element::metric::Tensor;
 
 /// Tets per batch.
 pub const LANES: usize = 8;
@@ -127,6 +128,9 @@ pub struct Frames {
     /// Whether each lane is a plain tet: one that the one-tet path computes by the formulas
     /// of this batch (see the module docs); the others' values here are meaningless.
     pub plain: [bool; LANES],
+    /// Whether each lane's frame is the one-tet path's (its differences in range, its float
+    /// determinant trusted), well-shaped or not: what a mapped frame starts from.
+    pub framed: [bool; LANES],
 }
 
 impl Frames {
@@ -145,8 +149,22 @@ impl Frames {
         let biased: [u64; LANES] = std::array::from_fn(|i| (max_abs[i].to_bits() >> 52) & 0x7ff);
         let inv = lanes(|i| f64::from_bits(2045u64.wrapping_sub(biased[i]) << 52));
         let scale = lanes(|i| f64::from_bits(biased[i].wrapping_add(1) << 52));
-        let [e1, e2, e3] = e.map(|v| v.times(inv));
-        let det = e1.dot(e2.cross(e3));
+        let edges = e.map(|v| v.times(inv));
+        let in_range = std::array::from_fn(|i| (TINY_DIFF..HUGE_DIFF).contains(&max_abs[i]));
+        Self::from_edges(edges, None, scale, None, in_range)
+    }
+
+    /// The frames of edges `e` (scaled by `scale`): their determinant `det` (`None`: the
+    /// float one of the edges), the quantities the kernels share, and which lanes are
+    /// plain: `in_range`, the edges' float determinant trusted, and well-shaped with the
+    /// radius-ratio bound widened by `sqrt(slack)` ([`super::well_shaped_within`]; `None`:
+    /// [`super::well_shaped`]).
+    #[inline(always)]
+    fn from_edges(e: [V3; 3], det: Option<Lanes>, scale: Lanes, slack: Option<Lanes>, in_range: [bool; LANES]) -> Self {
+        let abs = |v: V3| V3 { x: lanes(|i| v.x[i].abs()), y: lanes(|i| v.y[i].abs()), z: lanes(|i| v.z[i].abs()) };
+        let [e1, e2, e3] = e;
+        let rounded = e1.dot(e2.cross(e3));
+        let det = det.unwrap_or(rounded);
         // the error bound of the float determinant (crate::element::exact::permanent)
         let a = [abs(e1), abs(e2), abs(e3)];
         let permanent = lanes(|i| {
@@ -164,14 +182,49 @@ impl Frames {
         // well shaped (radius ratio >= WELL_SHAPED), as super::well_shaped tests it
         let largest = max(max(normal2[0], normal2[1]), max(normal2[2], normal2[3]));
         let c2 = centre.length_squared();
+        let framed: [bool; LANES] =
+            std::array::from_fn(|i| in_range[i] && DET_ERROR * permanent[i] <= DET_RTOL * rounded[i].abs());
         let plain = std::array::from_fn(|i| {
-            let in_range = (TINY_DIFF..HUGE_DIFF).contains(&max_abs[i]);
-            let trusted = DET_ERROR * permanent[i] <= DET_RTOL * det[i].abs();
             let det2 = det[i] * det[i];
-            let well_shaped = det2 >= f64::MIN_POSITIVE && 9.0 * det2 >= 16.0 * WELL_SHAPED * WELL_SHAPED * largest[i] * c2[i];
-            in_range && trusted && well_shaped
+            let bound = match slack {
+                None => 16.0 * WELL_SHAPED * WELL_SHAPED * largest[i] * c2[i],
+                Some(slack) => 16.0 * WELL_SHAPED * WELL_SHAPED * slack[i] * largest[i] * c2[i],
+            };
+            framed[i] && det2 >= f64::MIN_POSITIVE && 9.0 * det2 >= bound
         });
-        Frames { x, normals, normal2, centre, scale, det, plain }
+        Frames { x, normals, normal2, centre, scale, det, plain, framed }
+    }
+
+    /// The frames of these tets mapped by `tensors` (one per lane), as
+    /// [`crate::element::metric::mapped_tet`] maps one tet, bit for bit: the mapped edges
+    /// with their rounding bound, scaled by a power of two, their determinant from the
+    /// tet's, the shape test widened by the bound. Lanes whose frame is not
+    /// [`Frames::framed`] are not plain.
+    #[inline]
+    pub fn mapped(&self, tensors: &[Tensor<3>; LANES]) -> Frames {
+        let e = [self.x[1], self.x[2], self.x[3]];
+        let mut y = [[[0.0; 3]; 3]; LANES];
+        let mut err = [0.0f64; LANES];
+        for i in 0..LANES {
+            for k in 0..3 {
+                let (v, bound) = tensors[i].map_bounded([e[k].x[i], e[k].y[i], e[k].z[i]]);
+                y[i][k] = v;
+                err[i] = bound.iter().fold(err[i], |m, &b| m.max(b));
+            }
+        }
+        let mut scale = [0.0; LANES];
+        let mut det = [0.0; LANES];
+        let mut slack = [f64::INFINITY; LANES];
+        let mut in_range = [false; LANES];
+        let mut edges = [V3::ZERO; 3];
+        for i in 0..LANES {
+            let Some(m) = mapping(&y[i], err[i], self.det[i], self.scale[i], &tensors[i]) else { continue };
+            for k in 0..3 {
+                (edges[k].x[i], edges[k].y[i], edges[k].z[i]) = (y[i][k][0] * m.inv, y[i][k][1] * m.inv, y[i][k][2] * m.inv);
+            }
+            (scale[i], det[i], slack[i], in_range[i]) = (m.scale, m.det, m.slack, self.framed[i]);
+        }
+        Self::from_edges(edges, Some(det), scale, Some(slack), in_range)
     }
 
     /// The primal weights and diagonal entries of every lane ([`super::primal`]),
@@ -216,6 +269,28 @@ impl Frames {
         let s = self.scale;
         lanes(|i| self.det[i].abs() / 6.0 * s[i] * s[i] * s[i])
     }
+}
+
+/// How a tet's mapped edges become a frame ([`crate::element::metric::mapped_tet`]'s
+/// steps after the map).
+struct Mapping {
+    /// The power of two the mapped edges are multiplied by.
+    inv: f64,
+    /// The mapped frame's length unit.
+    scale: f64,
+    /// Its determinant.
+    det: f64,
+    /// The slack of its shape test.
+    slack: f64,
+}
+
+/// The frame of a tet's mapped edges `y` (their rounding bound `err`; the tet's own
+/// determinant `det` and unit `scale`), by [`crate::element::metric::frame_of_mapped`]:
+/// `None` for edges that are all zero or not finite.
+#[inline(always)]
+fn mapping(y: &[[f64; 3]; 3], err: f64, det: f64, scale: f64, k: &Tensor<3>) -> Option<Mapping> {
+    let (inv, scale, det, slack) = crate::element::metric::frame_of_mapped(y, err, det, scale, k)?;
+    Some(Mapping { inv, scale, det, slack })
 }
 
 /// The range of the largest difference component of a plain frame: `[2^-1000, 2^1000)`.
