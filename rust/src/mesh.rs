@@ -1,6 +1,7 @@
 //! Validated, borrowed view of a simplicial mesh: the one place where input is checked.
 
 use crate::error::{CoefficientProblem, Error, Feature, Result};
+use crate::element::tet::batch::LANES;
 use crate::element::{Simplex, Tet, Tri};
 use rayon::prelude::*;
 
@@ -67,10 +68,31 @@ pub fn check_coefficient<S: Simplex>(coefficient: Coefficient, m: usize, dim: us
         return problem(k).map_or(Ok(()), |p| Err(error(None, p)));
     }
     let at = |t: usize| &values[t * per..][..per];
-    match first_element(m, |t| problem(at(t)).is_some())? {
+    let first = match per {
+        1 => first_element(m, |t| problem(at(t)).is_some())?,
+        _ => first_tensor::<S>(values, m)?,
+    };
+    match first {
         None => Ok(()),
         Some(t) => Err(error(Some(t), problem(at(t)).expect("found above"))),
     }
+}
+
+/// The first of the `m` tensors `values` (`MIN_DIM` squared values each) that
+/// [`Simplex::tensor`] refuses, checked [`LANES`] at a time ([`Simplex::tensors`]).
+fn first_tensor<S: Simplex>(values: &[f64], m: usize) -> Result<Option<usize>> {
+    let dd = S::MIN_DIM * S::MIN_DIM;
+    let groups = m.div_ceil(LANES);
+    let bad_group = |g: usize| {
+        let mut k = [[0.0; 9]; LANES];
+        for (i, k) in k.iter_mut().enumerate() {
+            let t = (g * LANES + i).min(m - 1);
+            k[..dd].copy_from_slice(&values[t * dd..][..dd]);
+        }
+        !S::tensors(&k).1.iter().all(|&ok| ok)
+    };
+    let group = first_element(groups, bad_group)?;
+    Ok(group.and_then(|g| (g * LANES..m.min((g + 1) * LANES)).find(|&t| S::tensor(&values[t * dd..][..dd]).is_err())))
 }
 
 /// The first of `m` elements for which `bad` holds, whatever the scheduling: searched in

@@ -130,18 +130,38 @@ impl<S: Simplex> Elements<'_, S> {
         let Slots { mut w, mut d, mut m } = out;
         let (points, dim, cells) = (self.mesh.points(), self.mesh.dim(), self.mesh.cells());
         let batched = self.mesh.vertex_weights().is_none() && request.batched();
+        // the elements' coefficients and densities in the order of this call, gathered at
+        // once (the elements come in the internal order, the values in the user's: loads
+        // that overlap, instead of one cache miss per element in the kernels' loop)
+        let gather = |v: &[f64], per: usize| -> Vec<f64> {
+            let mut out = Vec::with_capacity(count * per);
+            (0..count).for_each(|k| out.extend_from_slice(&v[self.user_index(t_of(k)) * per..][..per]));
+            out
+        };
+        let dd = S::MIN_DIM * S::MIN_DIM;
+        let coefficients = match self.coefficient {
+            Some(Prepared::Scalar(v)) if batched => gather(v, 1),
+            Some(Prepared::Tensor(v)) if batched => gather(v, dd),
+            _ => Vec::new(),
+        };
+        let densities = self.density.filter(|_| batched).map(|v| gather(v, 1));
         // the lanes' coefficients and densities
         let scales = |items: &[(usize, usize)]| -> Scales<S::Tensor> {
-            let user = |i: usize| self.user_index(items[i.min(items.len() - 1)].1);
-            let at = |v: &[f64]| std::array::from_fn(|i| v[user(i)]);
-            let dd = S::MIN_DIM * S::MIN_DIM;
+            let k = |i: usize| items[i.min(items.len() - 1)].0;
+            let at = |v: &[f64]| std::array::from_fn(|i| v[k(i)]);
             let (coefficient, tensors) = match self.coefficient {
                 None => (None, None),
-                Some(Prepared::Scalar(v)) => (Some(at(v)), None),
-                Some(Prepared::Tensor(v)) => (None, Some(std::array::from_fn(|i| S::tensor_unchecked(&v[user(i) * dd..][..dd])))),
+                Some(Prepared::Scalar(_)) => (Some(at(&coefficients)), None),
+                Some(Prepared::Tensor(_)) => {
+                    let mut raw = [[0.0; 9]; LANES];
+                    for (i, r) in raw.iter_mut().enumerate() {
+                        r[..dd].copy_from_slice(&coefficients[k(i) * dd..][..dd]);
+                    }
+                    (None, Some(S::tensors(&raw).0))
+                }
                 Some(Prepared::Constant(k)) => (None, Some([k; LANES])),
             };
-            Scales { coefficient, tensors, density: self.density.map(at) }
+            Scales { coefficient, tensors, density: densities.as_deref().map(at) }
         };
         let fixed = |t: usize| self.boundary.as_ref().is_some_and(|b| b[t]);
         // the elements no batch computed: (k, t)
@@ -165,8 +185,8 @@ impl<S: Simplex> Elements<'_, S> {
             let cells = &cells[..items.len()];
             let out = (&mut wl[..], &mut dl[..], &mut ml[..]);
             let done = match precise {
-                false => S::at_once(points, dim, cells, request, scales(items), out),
-                true => S::precise_at_once(points, dim, cells, request, scales(items), out),
+                false => S::at_once(points, dim, cells, request, &scales(items), out),
+                true => S::precise_at_once(points, dim, cells, request, &scales(items), out),
             };
             for (i, &(k, t)) in items.iter().enumerate() {
                 if done[i] && !fixed(t) {

@@ -40,7 +40,7 @@
 
 use super::metric::{Factored, Metric, Tensor};
 use super::simplex::{corner_sums, Simplex, Values};
-use super::tet::batch::{Frames, Lanes, LANES};
+use super::tet::batch::{Edges, Frames, Lanes, LANES};
 use super::tet::Placement;
 use crate::options::{LaplacianKind, MassKind};
 use std::cell::OnceCell;
@@ -404,15 +404,15 @@ pub(crate) fn tets_at_once(
     points: &[f64],
     cells: &[[u32; 4]],
     request: Request,
-    scales: Scales<Tensor<3>>,
+    scales: &Scales<Tensor<3>>,
     out: Outputs<'_>,
 ) -> [bool; LANES] {
     let lanes = cells.len().min(LANES);
     let corners: [[Lanes; 3]; 4] = std::array::from_fn(|c| {
         std::array::from_fn(|a| std::array::from_fn(|i| if i < lanes { points[3 * cells[i][c] as usize + a] } else { 0.0 }))
     });
-    let f = Frames::new(&corners);
-    let Some(tensors) = scales.tensors else {
+    let Some(tensors) = &scales.tensors else {
+        let f = Frames::new(&corners);
         let mut ok = f.plain;
         ok[lanes..].fill(false);
         let primal = || {
@@ -425,9 +425,12 @@ pub(crate) fn tets_at_once(
         };
         return finish(request, scales, ok, primal, dual, f.volume(), out.first(lanes));
     };
-    let g = f.mapped(&tensors);
+    let edges = Edges::new(&corners);
+    let corner = |i: usize, c: usize| &points[3 * cells[i.min(lanes - 1)][c] as usize..][..3];
+    let g = Frames::mapped(&edges, |i| [corner(i, 0), corner(i, 1), corner(i, 2), corner(i, 3)], tensors);
     // the tet's own frame for its masses, the mapped one for its Laplacian
-    let mut ok = if request.mass.is_some() { f.plain } else { f.framed };
+    let f = request.mass.map(|_| Frames::of(&edges));
+    let mut ok = f.as_ref().map_or(edges.framed, |f| f.plain);
     ok[lanes..].fill(false);
     let values = |v: [Lanes; 6]| v.map(|x| lanes_of(|i| tensors[i].values(x[i])));
     let primal = || {
@@ -437,10 +440,13 @@ pub(crate) fn tets_at_once(
     let lap_dual = matches!(request.laplacian, Some(LaplacianKind::Dual | LaplacianKind::Affine(_)));
     let dual = || {
         let (w, ok) = if lap_dual { (values(g.dual().0), g.plain) } else { ([[0.0; LANES]; 6], [true; LANES]) };
-        let cells = if request.mass == Some(MassKind::Circumcentric) { f.dual().1 } else { [[0.0; LANES]; 4] };
+        let cells = match (&f, request.mass) {
+            (Some(f), Some(MassKind::Circumcentric)) => f.dual().1,
+            _ => [[0.0; LANES]; 4],
+        };
         (w, cells, ok)
     };
-    finish(request, scales, ok, primal, dual, f.volume(), out.first(lanes))
+    finish(request, scales, ok, primal, dual, edges.volume(), out.first(lanes))
 }
 
 /// `f(lane)` for every lane.
@@ -489,18 +495,18 @@ pub(crate) fn tets_precise_at_once(
     points: &[f64],
     cells: &[[u32; 4]],
     request: Request,
-    scales: Scales<Tensor<3>>,
+    scales: &Scales<Tensor<3>>,
     out: Outputs<'_>,
 ) -> [bool; LANES] {
-    if scales.tensors.is_some() {
-        return [false; LANES]; // mapped tets take the precise path one by one
-    }
     use super::frame::{local_tet, precise_tet};
     use super::tet::{circumcentric_dual_precise_lanes, primal_precise_lanes, volume, well_shaped};
     let lanes = cells.len().min(LANES);
     let corner = |i: usize, c: usize| &points[3 * cells[i][c] as usize..][..3];
     let x = |i: usize| [corner(i, 0), corner(i, 1), corner(i, 2), corner(i, 3)];
     let local: [_; LANES] = std::array::from_fn(|i| (i < lanes).then(|| local_tet(x(i), &mut [])));
+    if let Some(tensors) = &scales.tensors {
+        return mapped_precise_at_once(x, local, tensors, request, scales, out.first(lanes));
+    }
     let mut ok: [bool; LANES] = local.map(|t| t.is_some_and(|t| t.det.abs() >= f64::MIN_POSITIVE && !well_shaped(&t)));
     let Some(first) = ok.iter().position(|&p| p) else {
         return ok;
@@ -525,6 +531,52 @@ pub(crate) fn tets_precise_at_once(
     )
 }
 
+/// [`tets_precise_at_once`] of tets (corners `x(lane)`, frames `local`) mapped by
+/// `tensors`: the lanes whose mapped tet takes the precise path, in double-double with
+/// error bounds from their mapped exact corners ([`crate::element::metric`]), with the
+/// masses that need no dual (the tets' own volumes); the others, and every lane of a
+/// request for a mass from a dual, are left to [`Element`].
+fn mapped_precise_at_once<'p>(
+    x: impl Fn(usize) -> [&'p [f64]; 4],
+    local: [Option<super::frame::LocalTet>; LANES],
+    tensors: &[Tensor<3>; LANES],
+    request: Request,
+    scales: &Scales<Tensor<3>>,
+    out: Outputs<'_>,
+) -> [bool; LANES] {
+    use super::metric::{mapped_tet, precise_mapped_tet};
+    use super::tet::{circumcentric_dual_precise_lanes, primal_precise_lanes, volume, well_shaped_within};
+    if matches!(request.mass, Some(MassKind::Circumcentric | MassKind::Mixed)) {
+        return [false; LANES];
+    }
+    let mapped: [_; LANES] = std::array::from_fn(|i| local[i].map(|t| (t, mapped_tet(x(i), &t, &tensors[i]))));
+    let mut ok = mapped.map(|m| {
+        m.is_some_and(|(t, (g, slack))| t.det.abs() >= f64::MIN_POSITIVE && !well_shaped_within(&g, slack))
+    });
+    let Some(first) = ok.iter().position(|&p| p) else {
+        return ok;
+    };
+    // the precise frames (lanes that take no precise path compute the first one's again)
+    let lane = |i: usize| if ok[i] { i } else { first };
+    let frames: [_; LANES] = std::array::from_fn(|i| {
+        let (t, (g, _)) = mapped[lane(i)].expect("a tet");
+        (precise_mapped_tet(x(lane(i)), &t, &g, &tensors[lane(i)]), g.scale, volume(&t))
+    });
+    let corners = frames.map(|((c, _), _, _)| c);
+    let (det, scale, volume) = (frames.map(|((_, d), _, _)| d), frames.map(|(_, s, _)| s), frames.map(|(_, _, v)| v));
+    ok[out.w.len()..].fill(false);
+    let values = |v: Lanes, i: usize| tensors[i].values(v[i]);
+    let primal = || {
+        let (w, d, ok) = primal_precise_lanes(&corners, det, scale);
+        (w.map(|v| lanes_of(|i| values(v, i))), d.map(|v| lanes_of(|i| values(v, i))), ok)
+    };
+    let dual = || {
+        let (w, _, ok) = circumcentric_dual_precise_lanes(&corners, det, scale);
+        (w.map(|v| lanes_of(|i| values(v, i))), [[0.0; LANES]; 4], ok)
+    };
+    finish(request, scales, ok, primal, dual, volume, out)
+}
+
 /// The values `request` asks for from a batch's kernels (`primal`: weights, diagonal
 /// entries and the lanes they serve; `dual`: the plain circumcentric one and the lanes it
 /// serves; `volume`), checked by the rule of [`Element`] ([`laplacian_of`], [`mass_of`],
@@ -532,7 +584,7 @@ pub(crate) fn tets_precise_at_once(
 /// for the lanes still `ok`; returns those lanes.
 fn finish<T>(
     request: Request,
-    scales: Scales<T>,
+    scales: &Scales<T>,
     mut ok: [bool; LANES],
     primal: impl FnOnce() -> ([Lanes; 6], [Lanes; 4], [bool; LANES]),
     dual: impl FnOnce() -> ([Lanes; 6], [Lanes; 4], [bool; LANES]),
@@ -740,9 +792,9 @@ mod tests {
                 };
                 let (mut w, mut d, mut m) = ([[0.0; 6]; LANES], [[0.0; 4]; LANES], [[0.0; 4]; LANES]);
                 let (mut pw, mut pd, mut pm) = ([[0.0; 6]; LANES], [[0.0; 4]; LANES], [[0.0; 4]; LANES]);
-                let done = tets_at_once(&points, group, request, scales, Outputs { w: &mut w, d: &mut d, m: &mut m });
+                let done = tets_at_once(&points, group, request, &scales, Outputs { w: &mut w, d: &mut d, m: &mut m });
                 let out = Outputs { w: &mut pw, d: &mut pd, m: &mut pm };
-                let done_precise = tets_precise_at_once(&points, group, request, scales, out);
+                let done_precise = tets_precise_at_once(&points, group, request, &scales, out);
                 for (i, cell) in group.iter().enumerate() {
                     let x = cell.map(|v| &points[3 * v as usize..][..3]);
                     let local = crate::element::frame::local_tet(x, &mut []);

@@ -19,26 +19,26 @@
 //!
 //! # Scaling and accuracy
 //! A tensor is divided by the power of two `2^e` that brings its largest entry into
-//! `[1/2, 1)` before it is factored; both Laplacians are linear in `K`, so the values of
+//! `[1, 2)` before it is factored; both Laplacians are linear in `K`, so the values of
 //! `K / 2^e` are multiplied by `2^e` at the end, exactly: a tensor scaled by `2^k` gives
 //! every value scaled by `2^k`, bit for bit, and no product of the kernels leaves the
 //! range on the tensor's account. Its factor `C` is computed in `f64`: the values are those
 //! of `2^e C C^T`, which differs from `K` by the rounding of a Cholesky factorization
 //! (backward stable: a few units of `2^-53` of `sqrt(K_ii K_jj)` per entry).
 //!
-//! The mapped element is a frame like any other (edges scaled by a power of two, its
-//! determinant `det C^-1` times the element's, which is rounded correctly), and the accuracy
-//! rule ([`crate::element`]) holds for it as it does for the element: a mapped tet is
-//! computed in `f64` when it is well-shaped with a margin for the rounding of its mapped
-//! edges (their error bound, relative to the edges', widens the radius-ratio bound by its
-//! square root), else by the precise path, whose double-double and exact rational steps
-//! map the element's exact edges by the same `C^-1` (its entries are `f64` numbers, so the
-//! mapped element is exact too). Mapped triangles have their edges mapped in double-double
-//! and rounded once, as accurate as any triangle's frame.
+//! The mapped element is a frame like any other: its edges `C^-1 e` are computed in
+//! double-double from the exact edges and rounded once (as accurate as any element's
+//! frame), scaled by a power of two, its determinant `det C^-1` times the element's (which
+//! is rounded correctly). So the accuracy rule ([`crate::element`]) holds for it as it does
+//! for any element: a mapped tet is computed in `f64` when it is well-shaped *in the
+//! metric*, else by the precise path, whose double-double and exact rational steps map the
+//! element's exact edges by the same `C^-1` (its entries are `f64` numbers, so the mapped
+//! element is exact too).
 
 use super::exact::Dd;
 use super::frame::{precise_tet, LocalTet, LocalTri};
 use super::rational::{ldexp, Exact};
+use super::tet::batch::{Lanes, LANES};
 use super::tet::exact_tet;
 use crate::element::bounded::Bd;
 use crate::error::CoefficientProblem;
@@ -50,9 +50,6 @@ use std::ops::{Mul, Sub};
 /// as `R D R^T`), far below a tensor that is not symmetric. The kernels use
 /// `(K + K^T) / 2`.
 pub const SYMMETRY_RTOL: f64 = 1.0 / (1u64 << 40) as f64;
-
-/// The unit roundoff of `f64`, `2^-53`.
-const UNIT: f64 = 1.0 / (1u64 << 53) as f64;
 
 /// What the kernels need of a factored tensor beyond its map (see [`Tensor`]).
 pub trait Factored: Copy {
@@ -95,6 +92,8 @@ pub struct Tensor<const D: usize> {
     /// `2^exponent` where that is a normal `f64` (else 0, and the values are scaled by
     /// [`ldexp`]).
     power: f64,
+    /// Whether each `inv_diag` is a power of two (the map's products with it are exact).
+    exact: [bool; D],
     /// `det C = 1 / det C^-1`.
     sqrt_det: f64,
 }
@@ -157,11 +156,91 @@ impl<const D: usize> Tensor<D> {
         Self::from_parts(lower, inv_diag, exponent)
     }
 
+    /// [`Tensor::factor`] of [`LANES`] tensors at once (`k[lane][..D * D]`, row-major),
+    /// the same operations lane by lane, side by side, and whether each passes
+    /// [`Tensor::new`]'s checks (which say why one does not).
+    #[inline(always)]
+    pub fn factor_lanes(k: &[[f64; 9]; LANES]) -> ([Self; LANES], [bool; LANES]) {
+        let n = D * D;
+        // normalised: the largest entry, its exponent, the entries scaled
+        let mut largest = [0.0f64; LANES];
+        let mut finite = [true; LANES];
+        for c in 0..n {
+            for i in 0..LANES {
+                largest[i] = largest[i].max(k[i][c].abs());
+                finite[i] &= k[i][c].is_finite();
+            }
+        }
+        let exponent: [i32; LANES] =
+            std::array::from_fn(|i| if largest[i] > 0.0 && largest[i].is_finite() { exponent_of(largest[i]) - 1 } else { 0 });
+        let mut a = [[[0.0f64; LANES]; D]; D];
+        for i in 0..LANES {
+            let e = exponent[i];
+            for r in 0..D {
+                for c in 0..D {
+                    a[r][c][i] = if (-1021..=1021).contains(&e) {
+                        k[i][r * D + c] * f64::from_bits(((1023 - e) as u64) << 52)
+                    } else {
+                        ldexp(k[i][r * D + c], -i64::from(e))
+                    };
+                }
+            }
+        }
+        // the checks of Tensor::new: finite, symmetric, then the pivots
+        let mut valid = finite;
+        let mut scaled_largest = [0.0f64; LANES];
+        for row in &a {
+            for v in row {
+                for i in 0..LANES {
+                    scaled_largest[i] = scaled_largest[i].max(v[i].abs());
+                }
+            }
+        }
+        for r in 0..D {
+            for c in r + 1..D {
+                for i in 0..LANES {
+                    valid[i] &= (a[r][c][i] - a[c][r][i]).abs() / scaled_largest[i] <= SYMMETRY_RTOL;
+                }
+            }
+        }
+        // symmetric, then cholesky, lane by lane
+        let sym = |r: usize, c: usize, i: usize| if r == c { a[r][r][i] } else { (a[r][c][i] + a[c][r][i]) * 0.5 };
+        let mut lower = [[0.0f64; LANES]; 3];
+        let mut inv_diag = [[0.0f64; LANES]; D];
+        for r in 0..D {
+            for c in 0..r {
+                for i in 0..LANES {
+                    let mut s = sym(r, c, i);
+                    for l in 0..c {
+                        s -= lower[below(r, l)][i] * lower[below(c, l)][i];
+                    }
+                    lower[below(r, c)][i] = s * inv_diag[c][i];
+                }
+            }
+            for i in 0..LANES {
+                let mut pivot = sym(r, r, i);
+                for l in 0..r {
+                    pivot -= lower[below(r, l)][i] * lower[below(r, l)][i];
+                }
+                inv_diag[r][i] = 1.0 / pivot.sqrt();
+                valid[i] &= pivot > PIVOT_RTOL * sym(r, r, i) && inv_diag[r][i].is_finite();
+            }
+        }
+        for i in 0..LANES {
+            valid[i] &= scaled_largest[i] > 0.0;
+        }
+        let tensors = std::array::from_fn(|i| {
+            Self::from_parts(std::array::from_fn(|b| lower[b][i]), std::array::from_fn(|c| inv_diag[c][i]), exponent[i])
+        });
+        (tensors, valid)
+    }
+
     #[inline(always)]
     fn from_parts(lower: [f64; 3], inv_diag: [f64; D], exponent: i32) -> Self {
         let power = if (-1022..=1023).contains(&exponent) { f64::from_bits(((1023 + exponent) as u64) << 52) } else { 0.0 };
         let sqrt_det = 1.0 / inv_diag.iter().product::<f64>();
-        Tensor { lower, inv_diag, exponent, power, sqrt_det }
+        let exact = inv_diag.map(|d| d.is_normal() && d.to_bits() & ((1 << 52) - 1) == 0);
+        Tensor { lower, inv_diag, exponent, power, exact, sqrt_det }
     }
 
     /// `C^-1 e`: forward substitution with the reciprocals of the diagonal (in any
@@ -180,11 +259,14 @@ impl<const D: usize> Tensor<D> {
     }
 
     /// [`Tensor::map`] in `f64` of an edge whose components are each rounded (within a
-    /// relative `2^-53`) from the exact edge, with a bound on the error of each component
-    /// of the result against `C^-1` of the exact edge (a running error analysis: every
-    /// operation adds its own rounding and what its operands' errors can do).
+    /// relative `2^-53`) from the exact edge, with a bound on the error of the result
+    /// against `C^-1` of the exact edge (a running error analysis: every operation adds
+    /// its own rounding, unless it is exact (a product with 0 or with a power of two, a
+    /// difference with 0), and what its operands' errors can do; for a diagonal tensor of
+    /// powers of two the bound is that of the edge itself), the largest over the
+    /// components.
     #[inline(always)]
-    pub fn map_bounded(&self, e: [f64; D]) -> ([f64; D], [f64; D]) {
+    pub fn map_bounded(&self, e: [f64; D]) -> ([f64; D], f64) {
         let mut y = [0.0; D];
         let mut err = [0.0; D];
         for i in 0..D {
@@ -194,12 +276,45 @@ impl<const D: usize> Tensor<D> {
                 let l = self.lower[below(i, j)];
                 let t = l * y[j];
                 s = s - t;
-                es = es + (UNIT * t.abs() + l.abs() * err[j]) + UNIT * s.abs();
+                let rounding = if l == 0.0 { 0.0 } else { UNIT * t.abs() + UNIT * s.abs() };
+                es = es + (l.abs() * err[j] + rounding);
             }
             y[i] = s * self.inv_diag[i];
-            err[i] = UNIT * y[i].abs() + self.inv_diag[i].abs() * es;
+            let rounding = if self.exact[i] { 0.0 } else { UNIT * y[i].abs() };
+            err[i] = rounding + self.inv_diag[i].abs() * es;
         }
-        (y, err)
+        (y, err.iter().fold(0.0f64, |m, &b| m.max(b)))
+    }
+
+    /// [`Tensor::map`] in double-double, its products by [`Dd::times`] (exact zeros
+    /// without a fused multiply-add): the map of [`mapped_tet`] and [`mapped_tri`].
+    #[inline(always)]
+    pub fn map_dd(&self, e: [Dd; D]) -> [Dd; D] {
+        let mut y = e;
+        for i in 0..D {
+            let mut s = e[i];
+            for j in 0..i {
+                s = s - y[j].times(self.lower[below(i, j)]);
+            }
+            y[i] = s.times(self.inv_diag[i]);
+        }
+        y
+    }
+
+    /// A bound on the magnitudes of [`Tensor::map`]'s steps for an edge `e` (`|C^-1| |e|`
+    /// evaluated with absolute values, in `f64`): what the error of a double-double
+    /// evaluation of the map is relative to.
+    #[inline(always)]
+    pub fn magnitude(&self, e: [f64; D]) -> f64 {
+        let mut m = [0.0; D];
+        for i in 0..D {
+            let mut s = e[i].abs();
+            for j in 0..i {
+                s += self.lower[below(i, j)].abs() * m[j];
+            }
+            m[i] = s * self.inv_diag[i].abs();
+        }
+        m.iter().fold(0.0f64, |a, &b| a.max(b))
     }
 
     /// `det C^-1`, the product of [`Tensor::map`]'s diagonal, in `f64`.
@@ -234,12 +349,13 @@ impl<const D: usize> Tensor<D> {
 }
 
 /// `k` (row-major) divided by the power of two `2^e` that brings its largest entry into
-/// `[1/2, 1)`, and `e` (0 for a zero or non-finite `k`): exact but for entries `2^1022`
-/// times smaller than the largest.
+/// `[1, 2)` (so that a diagonal tensor of powers of four has a factor of powers of two,
+/// whose map is exact), and `e` (0 for a zero or non-finite `k`): exact but for entries
+/// `2^1021` times smaller than the largest.
 #[inline(always)]
 fn normalised<const D: usize>(k: &[f64]) -> ([[f64; D]; D], i32) {
     let largest = k[..D * D].iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    let e = if largest > 0.0 && largest.is_finite() { exponent_of(largest) } else { 0 };
+    let e = if largest > 0.0 && largest.is_finite() { exponent_of(largest) - 1 } else { 0 };
     let a = if (-1021..=1021).contains(&e) {
         let inv = f64::from_bits(((1023 - e) as u64) << 52); // 2^-e, a normal number
         std::array::from_fn(|i| std::array::from_fn(|j| k[i * D + j] * inv))
@@ -315,22 +431,35 @@ fn eigenvalue_range<const D: usize>(a: &[[f64; D]; D]) -> (f64, f64) {
 
 /// `2^k` for a power-of-two exponent `k` of a frame (the result may leave the normal
 /// range only for elements far beyond it, whose values the range rule refuses).
+#[inline(always)]
 fn pow2(k: i32) -> f64 {
-    ldexp(1.0, i64::from(k))
+    if (-1022..=1023).contains(&k) {
+        f64::from_bits(((1023 + k) as u64) << 52)
+    } else {
+        ldexp(1.0, i64::from(k))
+    }
 }
 
-/// A tet mapped by the tensor `k`: the frame its Laplacian kernels see (the edges `C^-1 e`
-/// scaled by a power of two, its length unit as `scale`, its determinant `det C^-1` times
-/// the tet's), and the slack of its shape test (the bound on the rounding of the mapped
-/// edges over `2^-53` of the largest; infinite when the tet's own determinant is not a
-/// normal `f64`, which sends it to the precise path).
-pub fn mapped_tet(t: &LocalTet, k: &Tensor<3>) -> (LocalTet, f64) {
+/// A tet with corners `x` (in R^3; `t` its frame) mapped by the tensor `k`: the frame its
+/// Laplacian kernels see and the slack of its shape test ([`SLACK`] and above). The mapped
+/// edges `C^-1 e` are the frame's edges mapped in `f64` where the bound on that map's
+/// rounding, over `2^-53` of the largest component, is at most [`SLACK`] (that ratio is
+/// the slack: 1, the frame's own rounding, for a diagonal tensor of powers of two); else
+/// they are computed in double-double from the exact edges and rounded once, as accurate
+/// as any frame's edges (slack 1, but for `2^-100` of the map's magnitudes). They are
+/// scaled by a power of two, the length unit as `scale`, the determinant `det C^-1` times
+/// the tet's (correctly rounded). Edges that leave the range (coordinates whose
+/// differences overflow) give an infinite slack: the precise path.
+pub fn mapped_tet(x: [&[f64]; 4], t: &LocalTet, k: &Tensor<3>) -> (LocalTet, f64) {
     let mut y = [[0.0; 3]; 3];
     let mut err = 0.0f64;
-    for (yk, e) in y.iter_mut().zip(&t.edges) {
+    for (yv, e) in y.iter_mut().zip(&t.edges) {
         let (v, bound) = k.map_bounded(e.to_array());
-        *yk = v;
-        err = bound.iter().fold(err, |m, &b| m.max(b));
+        *yv = v;
+        err = err.max(bound);
+    }
+    if !(err <= SLACK * UNIT * largest(&y)) {
+        (y, err) = map_exactly(x, t.scale, k);
     }
     match frame_of_mapped(&y, err, t.det, t.scale, k) {
         None => (LocalTet { edges: [DVec3::ZERO; 3], scale: t.scale, det: 0.0 }, f64::INFINITY),
@@ -338,14 +467,101 @@ pub fn mapped_tet(t: &LocalTet, k: &Tensor<3>) -> (LocalTet, f64) {
     }
 }
 
-/// [`mapped_tet`]'s frame of the mapped edges `y` (their rounding bound `err`) of a tet of
+/// The largest slack of an `f64` map of a tet's edges ([`mapped_tet`]), 4: the shape
+/// test's radius-ratio bound widened by at most 2; beyond it the edges are mapped in
+/// double-double.
+pub const SLACK: f64 = 64.0;
+
+/// The largest absolute value of the mapped edges `y`.
+#[inline(always)]
+fn largest(y: &[[f64; 3]; 3]) -> f64 {
+    y.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
+/// The edges of the tet with corners `x` (frame unit `scale`) mapped by `k` in
+/// double-double from their exact values, rounded, and the bound on their error (the
+/// rounding, `2^-53` of the largest, and `2^-100` of the map's magnitudes).
+fn map_exactly(x: [&[f64]; 4], scale: f64, k: &Tensor<3>) -> ([[f64; 3]; 3], f64) {
+    let inv = 1.0 / scale;
+    let mut y = [[0.0; 3]; 3];
+    let mut magnitude = 0.0f64;
+    for (v, yv) in y.iter_mut().enumerate() {
+        let e: [Dd; 3] = std::array::from_fn(|c| {
+            let (hi, lo) = super::exact::two_sum(x[v + 1][c], -x[0][c]);
+            Dd { hi: hi * inv, lo: lo * inv }
+        });
+        *yv = k.map_dd(e).map(Dd::to_f64);
+        magnitude = magnitude.max(k.magnitude(e.map(|d| d.hi)));
+    }
+    let err = UNIT * largest(&y) + DD_ERROR * magnitude;
+    (y, err)
+}
+
+/// [`mapped_tet`]'s mapped edges of [`LANES`] tets with corners `x(lane)`, frame edges
+/// `e[edge]` (as [`super::tet::batch::Frames`] holds them, `[axis][lane]`) and units
+/// `scale`, by `k[lane]`: the `f64` map lane by lane, side by side, with the same
+/// operations, and the double-double map of the lanes that need it, one by one: the
+/// mapped edges (`[lane][edge][axis]`) and their error bounds.
+#[inline(always)]
+pub(crate) fn map_edges_lanes<'p>(
+    x: impl Fn(usize) -> [&'p [f64]; 4],
+    e: [[Lanes; 3]; 3],
+    scale: Lanes,
+    k: &[Tensor<3>; LANES],
+) -> ([[[f64; 3]; 3]; LANES], Lanes) {
+    let mut l = [[0.0; LANES]; 3];
+    let mut d = [[0.0; LANES]; 3];
+    let mut exact = [[false; LANES]; 3];
+    for (i, t) in k.iter().enumerate() {
+        for b in 0..3 {
+            (l[b][i], d[b][i], exact[b][i]) = (t.lower[b], t.inv_diag[b], t.exact[b]);
+        }
+    }
+    let mut y = [[[0.0; 3]; 3]; LANES];
+    let mut err = [0.0f64; LANES];
+    for (v, ev) in e.iter().enumerate() {
+        // Tensor::map_bounded, operation by operation
+        let mut yc = [[0.0; LANES]; 3];
+        let mut ec = [[0.0; LANES]; 3];
+        for c in 0..3 {
+            let mut s = ev[c];
+            let mut es: Lanes = std::array::from_fn(|i| UNIT * ev[c][i].abs());
+            for j in 0..c {
+                let lc = &l[below(c, j)];
+                for i in 0..LANES {
+                    let t = lc[i] * yc[j][i];
+                    s[i] = s[i] - t;
+                    let rounding = if lc[i] == 0.0 { 0.0 } else { UNIT * t.abs() + UNIT * s[i].abs() };
+                    es[i] = es[i] + (lc[i].abs() * ec[j][i] + rounding);
+                }
+            }
+            for i in 0..LANES {
+                yc[c][i] = s[i] * d[c][i];
+                let rounding = if exact[c][i] { 0.0 } else { UNIT * yc[c][i].abs() };
+                ec[c][i] = rounding + d[c][i].abs() * es[i];
+            }
+        }
+        for i in 0..LANES {
+            y[i][v] = [yc[0][i], yc[1][i], yc[2][i]];
+            err[i] = err[i].max(ec[0][i].max(ec[1][i]).max(ec[2][i]));
+        }
+    }
+    for i in 0..LANES {
+        if !(err[i] <= SLACK * UNIT * largest(&y[i])) {
+            (y[i], err[i]) = map_exactly(x(i), scale[i], &k[i]);
+        }
+    }
+    (y, err)
+}
+
+/// [`mapped_tet`]'s frame of the mapped edges `y` (with the error bound `err`) of a tet of
 /// determinant `det` and unit `scale`: the power of two that scales the edges, the mapped
 /// unit, determinant and slack; `None` for edges all zero or not finite. The one
 /// definition for [`mapped_tet`] and the batches.
 #[inline(always)]
 pub(crate) fn frame_of_mapped(y: &[[f64; 3]; 3], err: f64, det: f64, scale: f64, k: &Tensor<3>) -> Option<(f64, f64, f64, f64)> {
-    let max_abs = y.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
-    if !(max_abs > 0.0 && max_abs.is_finite()) {
+    let max_abs = largest(y);
+    if !(max_abs > 0.0 && max_abs.is_finite() && err.is_finite()) {
         return None;
     }
     let q = exponent_of(max_abs);
@@ -354,6 +570,13 @@ pub(crate) fn frame_of_mapped(y: &[[f64; 3]; 3], err: f64, det: f64, scale: f64,
     let slack = if det.abs() >= f64::MIN_POSITIVE { err / (UNIT * max_abs) } else { f64::INFINITY };
     Some((inv, scale * pow2(q), mapped_det, slack.max(1.0)))
 }
+
+/// The error of [`map_exactly`]'s double-double map, relative to its magnitude (`2^-100`,
+/// with slack for the operations' count).
+const DD_ERROR: f64 = 1.0 / (1u128 << 100) as f64;
+
+/// The unit roundoff of `f64`, `2^-53`.
+const UNIT: f64 = 1.0 / (1u64 << 53) as f64;
 
 /// The precise frame ([`precise_tet`]) of the tet with corners `x` (its frame `t`) mapped
 /// by `k` into the frame `mapped` ([`mapped_tet`]): the mapped corners and determinant in
@@ -384,7 +607,7 @@ pub fn mapped_tri(x: [&[f64]; 3], t: &LocalTri, k: &Tensor<2>) -> LocalTri {
             Dd::from(hi) + Dd::from(lo)
         })
     };
-    let y = [1, 2].map(|v| k.map(edge(v)).map(Dd::to_f64));
+    let y = [1, 2].map(|v| k.map_dd(edge(v)).map(Dd::to_f64));
     let max_abs = y.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
     if !(max_abs > 0.0 && max_abs.is_finite()) {
         return LocalTri { edges: [DVec2::ZERO; 2], scale: t.scale, det: 0.0 };
@@ -529,7 +752,7 @@ mod tests {
             if t.det == 0.0 {
                 continue;
             }
-            let (mapped, slack) = mapped_tet(&t, &k);
+            let (mapped, slack) = mapped_tet(corners, &t, &k);
             let fast = well_shaped_within(&mapped, slack);
             let (p, w) = if fast {
                 float += 1;
@@ -574,8 +797,9 @@ mod tests {
         for x in test_tets(&mut rng).into_iter().step_by(8) {
             let kv = rng.spd(2.0, 3.0);
             let k = Tensor::<3>::new(&kv).unwrap();
-            let t = crate::element::frame::local_tet([&x[0], &x[1], &x[2], &x[3]], &mut []);
-            let (mapped, _) = mapped_tet(&t, &k);
+            let corners = [&x[0][..], &x[1][..], &x[2][..], &x[3][..]];
+            let t = crate::element::frame::local_tet(corners, &mut []);
+            let (mapped, _) = mapped_tet(corners, &t, &k);
             let p = crate::element::tet::primal(&mapped);
             let e = t.edges.map(|v| v * t.scale);
             let det = e[0].dot(e[1].cross(e[2]));
@@ -592,6 +816,39 @@ mod tests {
                 assert!((got - direct(a, b)).abs() <= 1e-9 * scale, "{x:?}: {got} vs {}", direct(a, b));
             }
         }
+    }
+
+    #[test]
+    fn factoring_lanes_at_once_is_factoring_each_bit_for_bit() {
+        let mut rng = Rng(5);
+        let mut cases: Vec<[f64; 9]> = (0..200)
+            .map(|c| {
+                let scale = [1.0, 1e-300, 1e300, 3.0, 1e-310][c % 5];
+                rng.spd([0.0, 2.0, 6.0, 15.0][c % 4], scale)
+            })
+            .collect();
+        // and tensors each check refuses
+        cases.push([1.0, 0.1, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+        cases.push([1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+        cases.push([1.0, 0.0, 0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0, 1.0]);
+        cases.push([0.0; 9]);
+        cases.push([1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+        cases.push([4.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.25]);
+        let (mut accepted, mut refused) = (0, 0);
+        for group in cases.chunks(LANES) {
+            let k: [[f64; 9]; LANES] = std::array::from_fn(|i| group[i % group.len()]);
+            let (three, valid) = Tensor::<3>::factor_lanes(&k);
+            let (two, valid2) = Tensor::<2>::factor_lanes(&k);
+            for i in 0..LANES {
+                let bits = |t: &Tensor<3>| format!("{:?}", (t.lower.map(f64::to_bits), t.inv_diag.map(f64::to_bits), t.exponent, t.power.to_bits(), t.sqrt_det.to_bits(), t.exact));
+                assert_eq!(bits(&three[i]), bits(&Tensor::<3>::factor(&k[i])), "{:?}", k[i]);
+                assert_eq!(valid[i], Tensor::<3>::new(&k[i]).is_ok(), "{:?}", k[i]);
+                assert_eq!(format!("{:?}", two[i]), format!("{:?}", Tensor::<2>::factor(&k[i][..4])));
+                assert_eq!(valid2[i], Tensor::<2>::new(&k[i][..4]).is_ok(), "{:?}", k[i]);
+                if valid[i] { accepted += 1 } else { refused += 1 }
+            }
+        }
+        assert!(accepted > 100 && refused >= 5, "{accepted} {refused}");
     }
 
     #[test]

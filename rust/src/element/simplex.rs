@@ -111,6 +111,10 @@ pub trait Simplex: Copy + Debug + Default + Send + Sync + 'static {
     fn tensor(k: &[f64]) -> Result<Self::Tensor, CoefficientProblem>;
     /// [`Simplex::tensor`] of a tensor it accepts, without the checks.
     fn tensor_unchecked(k: &[f64]) -> Self::Tensor;
+    /// [`Simplex::tensor_unchecked`] of [`LANES`] tensors at once (`k[lane]`, the first
+    /// `MIN_DIM` squared values), bit for bit, and whether each passes
+    /// [`Simplex::tensor`]'s checks.
+    fn tensors(k: &[[f64; 9]; LANES]) -> ([Self::Tensor; LANES], [bool; LANES]);
     /// The element with corners `corners` (in `MIN_DIM`-space) and frame `l` mapped by the
     /// factor of `k` ([`crate::element::metric`]): the frame its Laplacian kernels see (its
     /// length unit as its scale) and the slack of its shape test
@@ -152,7 +156,7 @@ pub trait Simplex: Copy + Debug + Default + Send + Sync + 'static {
     /// kernels: which of them it computed (into `w[k]`, the Laplacian's diagonal entries
     /// into `d[k]`, `m[k]`), bit for bit as the one-element path would; the others take
     /// that path. None of them by default.
-    fn at_once(points: &[f64], dim: usize, cells: &[Self::Cell], request: Request, scales: Scales<Self::Tensor>, out: Out<'_, Self>) -> [bool; LANES] {
+    fn at_once(points: &[f64], dim: usize, cells: &[Self::Cell], request: Request, scales: &Scales<Self::Tensor>, out: Out<'_, Self>) -> [bool; LANES] {
         let _ = (points, dim, cells, request, scales, out);
         [false; LANES]
     }
@@ -163,7 +167,7 @@ pub trait Simplex: Copy + Debug + Default + Send + Sync + 'static {
         dim: usize,
         cells: &[Self::Cell],
         request: Request,
-        scales: Scales<Self::Tensor>,
+        scales: &Scales<Self::Tensor>,
         out: Out<'_, Self>,
     ) -> [bool; LANES] {
         let _ = (points, dim, cells, request, scales, out);
@@ -224,8 +228,12 @@ impl Simplex for Tet {
         Tensor::factor(k)
     }
 
-    fn mapped(_: &[&[f64]], l: &LocalTet, k: &Tensor<3>) -> (LocalTet, f64) {
-        mapped_tet(l, k)
+    fn tensors(k: &[[f64; 9]; LANES]) -> ([Tensor<3>; LANES], [bool; LANES]) {
+        Tensor::factor_lanes(k)
+    }
+
+    fn mapped(corners: &[&[f64]], l: &LocalTet, k: &Tensor<3>) -> (LocalTet, f64) {
+        mapped_tet([corners[0], corners[1], corners[2], corners[3]], l, k)
     }
 
     fn well_shaped_within(l: &LocalTet, slack: f64) -> bool {
@@ -310,7 +318,7 @@ impl Simplex for Tet {
         dim: usize,
         cells: &[[u32; 4]],
         request: Request,
-        scales: Scales<Tensor<3>>,
+        scales: &Scales<Tensor<3>>,
         (w, d, m): Out<'_, Self>,
     ) -> [bool; LANES] {
         if dim != 3 {
@@ -324,7 +332,7 @@ impl Simplex for Tet {
         dim: usize,
         cells: &[[u32; 4]],
         request: Request,
-        scales: Scales<Tensor<3>>,
+        scales: &Scales<Tensor<3>>,
         (w, d, m): Out<'_, Self>,
     ) -> [bool; LANES] {
         if dim != 3 {
@@ -360,6 +368,10 @@ impl Simplex for Tri {
 
     fn tensor_unchecked(k: &[f64]) -> Tensor<2> {
         Tensor::factor(k)
+    }
+
+    fn tensors(k: &[[f64; 9]; LANES]) -> ([Tensor<2>; LANES], [bool; LANES]) {
+        Tensor::factor_lanes(k)
     }
 
     fn mapped(corners: &[&[f64]], l: &LocalTri, k: &Tensor<2>) -> (LocalTri, f64) {
