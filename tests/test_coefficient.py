@@ -253,7 +253,7 @@ def test_the_primal_with_a_tensor_agrees_with_scikit_fem():
     assert rel(L, -stiffness) < 1e-12
 
 
-@pytest.mark.parametrize("options", [{}, {"boundary": "barycentric"}, {"weights": "random"}])
+@pytest.mark.parametrize("options", [{}, {"boundary_centres": "barycentric"}, {"weights": "random"}])
 def test_a_constant_tensor_is_the_plain_operator_of_the_mapped_mesh(options):
     V, T = mixed_cube(4, 8)
     rng = np.random.default_rng(8)

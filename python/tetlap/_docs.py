@@ -86,7 +86,7 @@ coefficient : array-like of real numbers, optional
     times the plain contribution. ``None``: the plain operator, bitwise. A per-vertex field
     goes through :func:`tetlap.coefficient.from_vertices` first; bad values raise
     :class:`tetlap.CoefficientError` or :class:`tetlap.NonFiniteError` naming the element
-    (README "Heterogeneous and anisotropic media").""",
+    (:doc:`/guide/media`).""",
     "density": """\
 density : (m,) array-like of real numbers, optional
     A positive factor per element for the masses (``rho c_p`` of a heat problem): every

@@ -34,9 +34,11 @@ from __future__ import annotations
 import numpy as np
 
 from . import _arrays, _core
+from ._names import public_dir
 from .errors import DtypeError, OptionError, ShapeError
 
 __all__ = ["check", "from_vertices"]
+__dir__ = public_dir(globals())
 
 
 def _argument(values, shapes: tuple[tuple[int, int], tuple[int, int]], *,
