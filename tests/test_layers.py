@@ -20,23 +20,27 @@ import tetlap
 
 #: The layers from the bottom up: (what the layer is, its modules, dotted below
 #: ``tetlap``; ``__init__`` is the package itself). A module imports from its own layer
-#: or a lower one. A new module must be placed here.
+#: or a lower one. A new module must be placed here. Where a module sits is decided by
+#: what it does: the per-element diagnostics (boundary faces, orientation, volumes: the
+#: crate's topology, below its assembly) sit with the operators that use them; turning a
+#: mesh object into arrays (``_meshobj``) is part of checking the input; the mesh report
+#: (``info``) and harmonic fields (``fields``) run regular weights, an application.
 LAYERS = (
-    ("foundations: errors, option and array checks, mesh objects as arrays, the float "
-     "range, progress, Ctrl-C, optional extras, and the Rust core",
-     "_core errors _names _docs _options _arrays _meshobj _float_range _sparse _progress "
-     "_interrupt _extras"),
-    ("elements and operators: assembly, the dual, DEC, calculus, their derivatives, the "
-     "per-element diagnostics, the built-in meshes and the Mesh object",
+    ("0 foundations: errors, option and array checks, mesh objects as arrays, the float "
+     "range, progress, Ctrl-C, BLAS threads, optional extras, the Rust core",
+     "_core errors _names _docs _options _arrays _meshobj _float_range _sparse "
+     "_progress _interrupt _blas _extras"),
+    ("1 elements and operators: assembly, the dual, DEC, calculus, their derivatives, the "
+     "per-element diagnostics, the built-in meshes, the Mesh object",
      "assembly dual _dual_faces dec calculus derivatives diagnostics meshes mesh"),
-    ("what reads and solves an operator: the Table 1 check, cell-centred operators and "
-     "their report, the solvers, eigenmodes and files",
+    ("2 what reads and solves an operator: the Table 1 check, the cell-centred operator "
+     "and its report, the solvers, eigenmodes, mesh files",
      "analysis properties cells spectral "
      "solve solve._amg solve._boundary solve._checks solve._dirichlet solve._eigs "
      "solve._lanczos solve._linear solve._metis solve._neumann solve.factor solve.info "
      "io io._dual_cells io._pyvista io._read io._vtk io._write"),
-    ("applications: geodesic distances, harmonic fields, improvement, regular weights, "
-     "the mesh report, MPI, the autodiff adapters and the experiments",
+    ("3 applications: geodesic distances, harmonic fields, mesh improvement, regular "
+     "weights, the mesh report, MPI, the autodiff adapters, the experiments",
      "heat fields improve info distributed _adapters jax torch "
      "regular regular.conditions regular.masses regular.result regular.search "
      "regular.verify "
@@ -45,7 +49,7 @@ LAYERS = (
      "experiments.harmonic experiments.heat_distance experiments.improve "
      "experiments.negative_weights experiments.regular_weights experiments.shell "
      "experiments.sphere3"),
-    ("the front: the command line, the benchmarks and the package's namespace",
+    ("4 the front: the command line, the benchmarks, the package's namespace",
      "__init__ __main__ benchmark benchmark_solve "
      "cli cli._mesh cli._output cli._paths cli._threads cli.assemble cli.bench "
      "cli.distributed_info cli.experiment cli.geodesic cli.improve cli.info"),
@@ -134,10 +138,11 @@ def test_no_import_climbs_to_a_higher_layer():
     for module, target, path, line, inside, via in imports(known):
         assert target in known or target in LAYER, f"{path}:{line} imports unknown {target}"
         if module in LAYER and target in LAYER and LAYER[target] > LAYER[module]:
-            climbs.setdefault((path, line, target), f"{path.relative_to(PACKAGE.parent)}:{line}: {module} (layer "
-                          f"{LAYER[module]}) imports {target} (layer {LAYER[target]})"
-                          + (f", the package of {via}" if via else "")
-                          + (" inside a function" if inside else ""))
+            where = f"{path.relative_to(PACKAGE.parent)}:{line}"
+            climbs.setdefault((where, target), f"{where}: {module} (layer {LAYER[module]}) "
+                              f"imports {target} (layer {LAYER[target]})"
+                              + (f", the package of {via}" if via else "")
+                              + (" inside a function" if inside else ""))
     assert not climbs, f"{len(climbs)} imports climb:\n" + "\n".join(climbs.values())
 
 

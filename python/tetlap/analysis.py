@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _options, _sparse, assembly, diagnostics
+from ._blas import one_blas_thread
 from ._interrupt import eigvalsh, splu
 from .errors import OptionError, ShapeError
 from ._names import public_dir
@@ -401,8 +402,6 @@ def _dense(S: sp.csr_array, diagonal: np.ndarray):
     core's threads and other processes would make more spin against each other): those of
     ``-L`` (the smallest is reported) and, unless that one already says no, those of the
     Jacobi-scaled ``D^-1/2 (-L) D^-1/2`` on the rows with entries, which decide."""
-    from .solve._amg import one_blas_thread
-
     A = (-S).toarray()
     with one_blas_thread():
         lam = float(eigvalsh(A)[0])
