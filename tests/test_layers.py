@@ -55,6 +55,14 @@ LAYERS = (
      "cli.distributed_info cli.experiment cli.geodesic cli.improve cli.info"),
 )
 
+#: The imports of tetlap's own modules inside functions below the front layer, each with
+#: its reason (the front's keep ``tetlap --help`` from loading NumPy): an import deferred
+#: for no such reason would only hide where a module's dependencies lie.
+LAZY = {
+    ("_options", "_core"): "the CLI checks its options without loading the extension",
+    ("solve.factor", "solve._metis"): "pymetis is an optional dependency",
+}
+
 LAYER = {module: i for i, (_, modules) in enumerate(LAYERS) for module in modules.split()}
 PACKAGE = pathlib.Path(tetlap.__file__).resolve().parent
 
@@ -187,6 +195,18 @@ def test_no_circle_of_imports():
                  if b in graph[a]]
         described.append(" <-> ".join(component) + "\n" + "\n".join(edges))
     assert not circles, "modules import each other:\n" + "\n".join(described)
+
+
+def test_imports_inside_functions_below_the_front_have_a_reason():
+    front = len(LAYERS) - 1
+    deferred = {}
+    for module, target, path, line, inside, via in imports(modules()):
+        if inside and not via and LAYER.get(module, front) < front:
+            deferred.setdefault((module, target), f"{path.relative_to(PACKAGE.parent)}:{line}")
+    unexplained = {k: v for k, v in deferred.items() if k not in LAZY}
+    assert not unexplained, ("imports inside functions with no reason in LAZY (import at "
+                             f"module level, or say why not): {unexplained}")
+    assert set(LAZY) <= set(deferred), f"LAZY lists what is gone: {set(LAZY) - set(deferred)}"
 
 
 def test_the_walk_sees_what_it_must():
