@@ -31,8 +31,9 @@ LAYERS = (
      "_core errors _names _docs _options _arrays _meshobj _float_range _sparse "
      "_progress _interrupt _blas _extras"),
     ("1 elements and operators: assembly, the dual, DEC, calculus, their derivatives, the "
-     "per-element diagnostics, the built-in meshes, the Mesh object",
-     "assembly dual _dual_faces dec calculus derivatives diagnostics meshes mesh"),
+     "per-element diagnostics, the built-in meshes, the Mesh object, the media's "
+     "coefficients",
+     "coefficient assembly dual _dual_faces dec calculus derivatives diagnostics meshes mesh"),
     ("2 what reads and solves an operator: the Table 1 check, the cell-centred operator "
      "and its report, the solvers, eigenmodes, mesh files",
      "analysis properties cells spectral "
