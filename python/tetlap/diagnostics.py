@@ -331,29 +331,29 @@ def _mapped(V: np.ndarray, T: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np
 
 
 def _metric_face_weights(V: np.ndarray, T: np.ndarray, K: np.ndarray, interior: np.ndarray
-                         ) -> np.ndarray:
-    """(f, 2): each interior face's two contributions in the metric (rows of the core's
-    ``interior`` pairs ``[s, a, t, b]``): for tet ``s`` and its face opposite corner ``a``,
-    ``sqrt(det K_s) |f'| h' / 3``, with ``h'`` the signed distance of the circumcentre of
-    the mapped tet from the mapped face (positive on the tet's side) and ``|f'|`` its area.
-    That is the signed volume, in physical space, of the pyramid on the face whose apex is
-    the tet's circumcentre in its metric: it does not depend on the scale of ``K_s`` (a
-    scalar coefficient changes nothing). The face is locally Delaunay in the metric when
-    the sum of its two contributions is >= 0; for one constant ``K`` that is the sign of
-    the dual edge of the mesh mapped by ``K^-1/2``, its plain Delaunay test."""
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """``(w, size)``, each (f, 2): each interior face's two contributions in the metric
+    (rows of the core's ``interior`` pairs ``[s, a, t, b]``) and their scales. For tet
+    ``s`` and its face opposite corner ``a``, ``w = sqrt(det K_s) |f'| h' / 3``, with ``h'``
+    the signed distance of the circumcentre of the mapped tet from the mapped face
+    (positive on the tet's side) and ``|f'|`` its area: the signed volume, in physical
+    space, of the pyramid on the face whose apex is the tet's circumcentre in its metric,
+    which does not depend on the scale of ``K_s`` (a scalar coefficient changes nothing).
+    ``size`` is the same with the circumradius ``R' >= |h'|`` for ``h'``: the scale of
+    the rounding of ``w``. The face is locally Delaunay in the metric when the sum of its
+    two contributions is >= 0; for one constant ``K`` that is the sign of the dual edge of
+    the mesh mapped by ``K^-1/2``, its plain Delaunay test. A flat tet contributes 0."""
     P, C = _mapped(V, T, K)
-    heights, areas = _core.dual_centres(P, C)[2:4]               # (m, 4) each
-    scale = np.sqrt(np.linalg.det(_normalised(K)))
-    pyramid = scale[:, None] * areas * heights / 3               # (m, 4)
+    flat = _flat(_core.quality(P, C)[1])        # no circumcentre: no contribution
+    P.reshape(-1, 4, 3)[flat] = np.eye(4, 3, -1)  # a unit tet in their place, then 0
+    centres, _, heights, areas = _core.dual_centres(P, C)[:4]   # (m, 5, 3), (m, 4) ...
+    radius = np.linalg.norm(centres[:, 0] - P.reshape(-1, 4, 3)[:, 0], axis=1)
+    scale = np.where(flat, 0.0, np.sqrt(np.linalg.det(_normalised(K)))) * radius
+    pyramid = scale[:, None] * areas * (heights / radius[:, None]) / 3      # (m, 4)
+    size = scale[:, None] * areas / 3
     s, a, t, b = interior.T
-    return np.column_stack([pyramid[s, a], pyramid[t, b]])
-
-
-@_arrays.takes_mesh_object
-def well_centered(V, T=None) -> np.ndarray:
-    """Boolean (m,): the tet's circumcenter is strictly inside it and every face's
-    circumcenter strictly inside that face (all face angles acute)."""
-    return _quality(V, T)[2]
+    return (np.column_stack([pyramid[s, a], pyramid[t, b]]),
+            np.column_stack([size[s, a], size[t, b]]))
 
 
 @_arrays.takes_mesh_object
@@ -368,7 +368,8 @@ def non_delaunay_faces(V, T=None, rtol: float = DELAUNAY_RTOL, *, coefficient=No
     weight, the sum of its two tets' contributions (each the signed volume of the pyramid
     on the face whose apex is the tet's circumcentre in its metric, that is of the tet
     mapped by ``K_t^-1/2``, pulled back), is below ``-rtol`` times the sum of their
-    absolute values. For one constant ``K`` this is the Delaunay test of the mesh mapped
+    scales (the same volumes with each circumradius in the metric for the centre's
+    distance from the face, so that cospherical points are not flagged). For one constant ``K`` this is the Delaunay test of the mesh mapped
     by ``K^-1/2``; the dual in the metric needs it as the plain dual needs a Delaunay
     mesh. A scalar coefficient changes no face's answer (the plain test is returned).
 
@@ -410,12 +411,12 @@ def _non_delaunay(V, T, rtol, coefficient):
 def _delaunay_in_metric(V, T, K, interior, rtol: float = DELAUNAY_RTOL):
     """``(flags, margin)`` per row of ``interior``: not locally Delaunay in the metric (the
     sum of the two contributions of :func:`_metric_face_weights` below ``-rtol`` times the
-    sum of their absolute values), and that sum relative to the absolute sum, in [-1, 1]
-    (the most negative, the worst face; 0 for two flat contributions)."""
-    w = _metric_face_weights(V, T, K, interior)
-    total, size = w.sum(axis=1), np.abs(w).sum(axis=1)
+    sum of their sizes), and that sum relative to the sum of the sizes, in [-1, 1] (the
+    most negative, the worst face; 0 between two flat tets)."""
+    w, size = _metric_face_weights(V, T, K, interior)
+    total, size = w.sum(axis=1), size.sum(axis=1)
     margin = np.divide(total, size, out=np.zeros_like(total), where=size > 0)
-    return total < -rtol * size, margin
+    return margin < -rtol, margin
 
 
 def _folds(V, T, interior, sign) -> np.ndarray:
