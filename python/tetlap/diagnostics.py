@@ -357,6 +357,13 @@ def _metric_face_weights(V: np.ndarray, T: np.ndarray, K: np.ndarray, interior: 
 
 
 @_arrays.takes_mesh_object
+def well_centered(V, T=None) -> np.ndarray:
+    """Boolean (m,): the tet's circumcenter is strictly inside it and every face's
+    circumcenter strictly inside that face (all face angles acute)."""
+    return _quality(V, T)[2]
+
+
+@_arrays.takes_mesh_object
 def non_delaunay_faces(V, T=None, rtol: float = DELAUNAY_RTOL, *, coefficient=None) -> np.ndarray:
     """Boolean per interior face (order of :func:`interior_faces`): the opposite vertex of
     the second tet lies strictly inside the circumsphere of the first (up to ``rtol``
