@@ -194,9 +194,10 @@ def next_steps(result: dict) -> list[str]:
                       "fall outside their tets inside and is positive on every mesh "
                       '(tetlap.mass(V, T, "mixed"); "barycentric" is positive too)')
     negative = d["n_negative_interior"]
-    if negative and r is None and result.get("coefficient") is None:
-        advice.append(f"the dual has {negative} negative interior weights: run without "
-                      "--no-regular to search for vertex weights that remove them")
+    if negative and r is None:
+        if result.get("coefficient") is None:    # the search is for the plain dual
+            advice.append(f"the dual has {negative} negative interior weights: run without "
+                          "--no-regular to search for vertex weights that remove them")
     elif negative and r["status"] == "regular" and (
             (r.get("guarantees") or {}).get("nonnegative_interior") == "yes"):
         g = r["guarantees"]
