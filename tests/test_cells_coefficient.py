@@ -199,3 +199,14 @@ def test_bad_coefficients_and_centres_are_named_and_nothing_is_modified():
         tetlap.cell_laplacian(np.hstack([V, np.zeros((len(V), 1))]), T, coefficient=np.ones(m))
     with pytest.raises(tetlap.CoefficientError, match="tet 3"):
         tetlap.cells.k_orthogonality(V, T, bad)
+
+
+def test_a_mesh_object_in_place_of_v_and_t():
+    meshio = pytest.importorskip("meshio")
+    V, T = tetlap.meshes.ball(100, seed=2)
+    K = random_spd(len(T), 0)
+    mesh = meshio.Mesh(V, [("tetra", T)])
+    assert np.array_equal(tetlap.cells.k_orthogonality(mesh, K).angle,
+                          tetlap.cells.k_orthogonality(V, T, K).angle)
+    a, b = tetlap.cell_laplacian(mesh, coefficient=K), tetlap.cell_laplacian(V, T, coefficient=K)
+    assert np.array_equal(a.data, b.data)

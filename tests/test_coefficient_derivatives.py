@@ -156,3 +156,13 @@ def test_bad_input():
         tetlap.coefficient_vjp(V, T, np.ones(m))
     with pytest.raises(tetlap.OptionError):
         tetlap.coefficient_vjp(V, T, np.ones(m), "nope", dL=dL)
+
+
+def test_a_mesh_object_in_place_of_v_and_t():
+    meshio = pytest.importorskip("meshio")
+    V, T = small_mesh(2)
+    c = np.linspace(1, 2, len(T))
+    Wt = np.ones((len(T), 6))
+    mesh = meshio.Mesh(V, [("tetra", T)])
+    assert np.array_equal(tetlap.coefficient_vjp(mesh, c, "dual", dL=Wt),
+                          tetlap.coefficient_vjp(V, T, c, "dual", dL=Wt))
