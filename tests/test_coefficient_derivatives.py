@@ -166,3 +166,51 @@ def test_a_mesh_object_in_place_of_v_and_t():
     mesh = meshio.Mesh(V, [("tetra", T)])
     assert np.array_equal(tetlap.coefficient_vjp(mesh, c, "dual", dL=Wt),
                           tetlap.coefficient_vjp(V, T, c, "dual", dL=Wt))
+
+
+# ---- with respect to the vertices, with a scalar coefficient ----------------------------
+
+
+@pytest.mark.parametrize("kind", ["primal", "dual", 0.3])
+@pytest.mark.parametrize("form", ["edges", "matrix"])
+def test_vertex_vjp_with_a_scalar_coefficient_matches_central_differences(kind, form):
+    """L = sum_t c_t L_t(V): the vertex gradient of <dL, L> with L built with c, against
+    central differences along a random direction; the value is <dL, L>."""
+    V, T = tetlap.meshes.ball(250, seed=21)
+    rng = np.random.default_rng(21)
+    c = rng.uniform(0.5, 2.0, len(T))
+    edges, _ = tetlap.edge_weights(V, T)
+    dw = rng.normal(size=len(edges))
+    dL = (edges, dw) if form == "edges" else sp.csr_array(
+        (np.r_[dw, dw], (np.r_[edges[:, 0], edges[:, 1]], np.r_[edges[:, 1], edges[:, 0]])),
+        shape=(len(V), len(V)))
+
+    def phi(X):
+        L = tetlap.laplacian(X, T, kind, coefficient=c)
+        return float((L.multiply(dL)).sum()) if form == "matrix" else \
+            float(sum(L[i, j] * w for (i, j), w in zip(edges, dw)))
+
+    V0 = V.copy()
+    g = tetlap.vjp(V, T, kind, dL=dL, coefficient=c)
+    assert np.array_equal(V, V0)
+    assert abs(g.value - phi(V)) <= 1e-12 * abs(phi(V)) + 1e-12
+    D = rng.normal(size=V.shape)
+    h = 1e-6
+    fd = (phi(V + h * D) - phi(V - h * D)) / (2 * h)
+    assert abs(np.sum(g.dV * D) - fd) <= 1e-6 * abs(fd) + 1e-8
+    # ones: the plain product (to rounding: the cotangent is taken per tet)
+    plain = tetlap.vjp(V, T, kind, dL=dL)
+    ones = tetlap.vjp(V, T, kind, dL=dL, coefficient=np.ones(len(T)))
+    np.testing.assert_allclose(ones.dV, plain.dV, rtol=0, atol=1e-12 * np.abs(plain.dV).max())
+
+
+def test_vertex_vjp_refuses_tensors_and_weights_with_a_coefficient():
+    V, T = tetlap.meshes.ball(200, seed=22)
+    edges, _ = tetlap.edge_weights(V, T)
+    dL = (edges, np.ones(len(edges)))
+    with pytest.raises(tetlap.OptionError, match="not a tensor"):
+        tetlap.vjp(V, T, "primal", dL=dL, coefficient=np.eye(3))
+    with pytest.raises(tetlap.OptionError, match="weights= with a coefficient"):
+        tetlap.vjp(V, T, "dual", dL=dL, coefficient=np.ones(len(T)), weights=np.zeros(len(V)))
+    with pytest.raises(tetlap.CoefficientError):
+        tetlap.vjp(V, T, "primal", dL=dL, coefficient=-np.ones(len(T)))

@@ -33,6 +33,7 @@ from . import _arrays, _core, _sparse
 from ._options import centres_used, weights_used
 from .assembly import _options, element_contributions
 from .coefficient import _argument
+from .coefficient import check as check_coefficient
 from ._docs import shared_docs
 from ._options import renamed
 from .errors import DtypeError, OptionError, ShapeError
@@ -132,7 +133,7 @@ def _mesh(V, T, weights, kinds, boundary_centres=None):
 @_arrays.takes_mesh_object
 @shared_docs
 def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
-        boundary_centres="circumcentric", weights=None, degenerate="raise",
+        boundary_centres="circumcentric", weights=None, coefficient=None, degenerate="raise",
         threads=None) -> VJP:
     """The vector-Jacobian product of the Laplacian and the mass matrix.
 
@@ -162,6 +163,13 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     dM : optional
         The cotangent on ``M``: a SciPy sparse (n, n) matrix (on its entries; only the
         diagonal counts for the lumped kinds) or an (n,) array (on its diagonal).
+    coefficient : (m,) array-like of positive reals, optional
+        ``L`` built with ``coefficient=c``, one scalar per tet (as :func:`tetlap.laplacian`
+        takes it): ``L = sum_t c_t L_t(V)``, so the product is the plain one with each
+        tet's cotangent times ``c_t``. Tensors and ``weights=`` with a coefficient (power
+        centres that move with the metric) are not differentiated with respect to the
+        vertices (:class:`tetlap.OptionError`); with respect to the coefficient itself:
+        :func:`coefficient_vjp`.
     {options}
 
     Returns
@@ -182,9 +190,9 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     -----
     A degenerate tet raises, or with ``degenerate="skip"`` contributes a zero gradient,
     consistently with its zero contribution to the operators. Inputs are never modified;
-    the GIL is released. The operators differentiated are the plain ones: there is no
-    ``coefficient=`` here (the gradient with respect to a coefficient itself is
-    :func:`coefficient_vjp`).
+    the GIL is released. With a scalar ``coefficient`` the operator differentiated is
+    ``L`` built with it (the masses do not depend on it); the gradient with respect to the
+    coefficient itself is :func:`coefficient_vjp`.
 
     Examples
     --------
@@ -204,11 +212,29 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
                     boundary_centres)
     n, m = V.shape[0], T.shape[0]
     dl = _laplacian_cotangent(dL, n, m)
+    if coefficient is not None:
+        dl = _scaled_by(coefficient, V, T, w, dL, dl)
     dm = _mass_cotangent(dM, n)
     dV, dweights, value = _core.vjp(V, T, {"laplacian": (kind, dl), "mass": (mass, dm)},
                                     weights=w, options=_options(boundary_centres, degenerate,
                                                                  threads))
     return VJP(dV, dweights, float(value))
+
+
+def _scaled_by(coefficient, V, T, w, dL, dl):
+    """The Laplacian's cotangent ``dl`` for ``L = sum_t c_t L_t``: per tet, times ``c_t``
+    (``coefficient`` validated as every function validates it; scalars only)."""
+    c = check_coefficient(coefficient, V, T)
+    if c.ndim != 1:
+        raise OptionError("vjp differentiates a scalar coefficient per tet ((m,)) with respect "
+                          "to the vertices, not a tensor: tetlap.coefficient_vjp "
+                          "differentiates with respect to the tensor itself")
+    if w is not None:
+        raise OptionError("vjp: weights= with a coefficient are not differentiated (their power "
+                          "centres move with the coefficient's metric)")
+    if dl is None:
+        return None
+    return ("elements", _element_cotangent(dL, T, V.shape[0]) * c[:, None])
 
 
 def _columns(f, n: int) -> np.ndarray:
