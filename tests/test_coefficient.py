@@ -263,6 +263,8 @@ def test_a_constant_tensor_is_the_plain_operator_of_the_mapped_mesh(options):
     mapped = V @ inv_sqrt(K)  # rows are points: x -> K^-1/2 x (symmetric)
     factor = np.sqrt(np.linalg.det(K))
     for kind in KINDS:
+        if options and kind == "primal":    # no dual centres: weights and the fix refused
+            continue
         if "weights" in options and kind != "dual":
             continue
         got = tetlap.laplacian(V, T, kind, coefficient=K, **options)
