@@ -165,3 +165,90 @@ def test_an_interrupted_update_leaves_the_mesh_as_it_was():
     """)
     with child(code) as p:
         assert line(p, 300) == "consistent"
+
+
+# --- tetlap._interrupt: calls in a child process, calls on a daemon thread ----------------
+
+def test_forked_brings_back_values_and_exceptions():
+    from tetlap import _interrupt
+
+    psutil = pytest.importorskip("psutil")
+    import numpy as np
+
+    small = np.arange(7, dtype=np.int32)
+    big = np.random.default_rng(0).standard_normal(300_000)  # stays in the shared memory
+    out = _interrupt.forked(lambda a, b: {"a": 2 * a, "b": b[::-1], "text": "x", "pid": os.getpid()},
+                            small, big)
+    if _interrupt.FORK:
+        assert out["pid"] != os.getpid()  # it ran in another process
+    assert out["a"].dtype == np.int32 and out["a"].tobytes() == (2 * small).tobytes()
+    assert out["b"].tobytes() == big[::-1].tobytes() and out["text"] == "x"
+    out["b"][0] = 1.0  # an ordinary, writable array
+    with pytest.raises(ValueError, match="bad input"):
+        _interrupt.forked(lambda: int("bad input"))
+
+    class Local(Exception):  # no pickling for a local class: its text comes back
+        pass
+
+    def raise_local():
+        raise Local("the text")
+
+    with pytest.raises(RuntimeError, match="Local: the text"):
+        _interrupt.forked(raise_local)
+    if _interrupt.FORK:
+        with pytest.raises(MemoryError, match="SIGKILL"):
+            _interrupt.forked(lambda: os.kill(os.getpid(), signal.SIGKILL))
+        with pytest.raises(ChildProcessError, match="SIGTERM"):
+            _interrupt.forked(lambda: os.kill(os.getpid(), signal.SIGTERM))
+    assert psutil.Process().children() == []
+
+
+FREED = RESTORE_SIGINT + textwrap.dedent("""
+    import os, sys, time
+    from tetlap import _interrupt
+
+    def spin():
+        while True:
+            pass
+
+    calls = {"forked": lambda: _interrupt.forked(spin),
+             "interruptible": lambda: _interrupt.interruptible(time.sleep, 30)}
+    print("ready", flush=True)
+    try:
+        calls[sys.argv[1]]()
+    except KeyboardInterrupt:
+        now, cpu = time.time(), time.process_time()
+        print("interrupted", now, flush=True)
+        time.sleep(0.5)
+        print("cpu", time.process_time() - cpu, flush=True)
+        print("exiting", time.time(), flush=True)
+        sys.exit(3)
+""")
+
+
+@pytest.mark.parametrize("call", ["forked", "interruptible"])
+def test_an_interrupted_call_leaves_the_process_free(call):
+    """forked: the child is killed and reaped, no CPU is spent after the interrupt;
+    interruptible: the abandoned thread is a daemon, so the exit does not wait for it and
+    a second Ctrl-C during the exit dumps no traceback of the threading module."""
+    psutil = pytest.importorskip("psutil")
+    with child(FREED, call) as p:
+        assert line(p, 60) == "ready"
+        time.sleep(0.5)
+        sent = time.time()
+        p.send_signal(signal.SIGINT)
+        words = line(p, 60).split()
+        assert words[0] == "interrupted" and float(words[1]) - sent < 1.0, words
+        assert psutil.Process(p.pid).children() == []
+        cpu = float(line(p, 60).split()[1])
+        exiting = float(line(p, 60).split()[1])
+        try:
+            p.wait(timeout=1.0)
+        except subprocess.TimeoutExpired:
+            p.send_signal(signal.SIGINT)  # a second Ctrl-C, as a user would
+            p.wait(timeout=60)
+        assert time.time() - exiting < 1.0, time.time() - exiting
+        p.stderr_file.seek(0)
+        assert "threading" not in p.stderr_file.read()
+        if call == "forked":
+            assert cpu < 0.1, cpu

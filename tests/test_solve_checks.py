@@ -114,3 +114,25 @@ def test_refactor_with_non_symmetric_values_says_so():
     lu.refactor(sp.csr_array(B))
     x = lu.solve(np.ones(N))
     np.testing.assert_allclose(sp.csr_array(B) @ x, np.ones(N), atol=1e-12)
+
+
+def test_an_interrupted_lu_refactor_leaves_a_factor_that_says_so(monkeypatch):
+    """A SuperLU refactor cut short (Ctrl-C) or refused keeps no old factor: solving then
+    says to refactor, instead of failing the residual check of the old factor against the
+    new values."""
+    from tetlap.solve import factor as factor_module
+
+    A = sp.csr_array(sp.random(30, 30, density=0.2, random_state=1) + 4 * sp.eye(30))
+    F = tetlap.solve.factorize(A, solver="lu")
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(factor_module._interrupt, "splu", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        F.refactor(2 * A)
+    with pytest.raises(tetlap.SolveError, match="refactor again"):
+        F.solve(np.ones(30))
+    monkeypatch.undo()
+    F.refactor(2 * A)
+    np.testing.assert_allclose(2 * A @ F.solve(np.ones(30)), np.ones(30), atol=1e-12)

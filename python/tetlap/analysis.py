@@ -22,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _options, _sparse, assembly, diagnostics
-from ._interrupt import interruptible
+from ._interrupt import eigvalsh, splu
 from .errors import OptionError, ShapeError
 from ._names import public_dir
 
@@ -368,14 +368,12 @@ SPARSE_NSD_MAX = 30_000
 def _ldl_inertia(A: sp.csr_array, shift: np.ndarray) -> int | None:
     """Negative pivots of a symmetric-mode LU (an LDL^T with diagonal pivoting and a
     fill-reducing ordering) of ``A + diag(shift)``: by Sylvester's law, the number of its
-    negative eigenvalues. None if the factorisation had to pivot off the diagonal. Runs on
-    a helper thread (SuperLU releases the GIL), so Ctrl-C is answered at once; an
-    interrupted factorisation finishes in the background and is dropped."""
-    from scipy.sparse.linalg import splu
-
+    negative eigenvalues. None if the factorisation had to pivot off the diagonal. Runs in
+    a child process (:func:`tetlap._interrupt.splu`), so Ctrl-C is answered at once and
+    stops it."""
     shifted = sp.csc_array(A + sp.diags_array(shift))
-    lu = interruptible(splu, shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                       options={"SymmetricMode": True})
+    lu = splu(shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+              options={"SymmetricMode": True})
     if not np.array_equal(lu.perm_r, lu.perm_c):
         return None
     return int((lu.U.diagonal() < 0).sum())
@@ -407,7 +405,7 @@ def _dense(S: sp.csr_array, diagonal: np.ndarray):
 
     A = (-S).toarray()
     with one_blas_thread():
-        lam = float(interruptible(np.linalg.eigvalsh, A)[0])
+        lam = float(eigvalsh(A)[0])
         verdict = False  # lambda_min(-L + diag(tol)) <= lam + max(tol) < 0
         if lam >= -NSD_RTOL * diagonal.max():
             live, zero_diagonal = _live_rows(S, diagonal)
@@ -415,7 +413,7 @@ def _dense(S: sp.csr_array, diagonal: np.ndarray):
             if verdict and len(live):
                 s = 1 / np.sqrt(diagonal[live])
                 B = A[np.ix_(live, live)] * s[:, None] * s[None, :]
-                verdict = float(interruptible(np.linalg.eigvalsh, B)[0]) >= -NSD_RTOL
+                verdict = float(eigvalsh(B)[0]) >= -NSD_RTOL
     return verdict, lam
 
 

@@ -1,7 +1,7 @@
 //! `tetlap::solve::Factorization`: solves checked against a dense reference, refactoring on
 //! the same pattern, inertia of indefinite matrices, determinism, and errors (never panics).
 
-use tetlap::solve::{Factorization, Inertia, Method, Ordering};
+use tetlap::solve::{Analysis, Factorization, Inertia, LuFactors, Method, Ordering};
 use tetlap::{laplacian, CsrRef, Error, LaplacianKind, Options, TetView};
 
 /// A square CSR matrix, owned.
@@ -286,4 +286,143 @@ fn a_singular_matrix_has_a_pivot_tiny_against_its_diagonal() {
     let plain = Factorization::new(a.view(), Method::Cholesky, &Ordering::Identity, &opts).unwrap().smallest_pivot();
     let other = Factorization::new(scaled.view(), Method::Cholesky, &Ordering::Identity, &opts).unwrap().smallest_pivot();
     assert!((plain.1 - other.1).abs() <= 1e-12 * plain.1, "{plain:?} {other:?}");
+}
+
+#[test]
+fn the_numeric_step_into_a_callers_slice_is_the_factorization_bitwise() {
+    // what a caller runs elsewhere (a child process) and hands back with from_parts
+    let a = Matrix::grid(4, 0.0);
+    let opts = Options::default();
+    let rhs: Vec<f64> = (0..a.n).map(|i| (i % 5) as f64 - 2.0).collect();
+    for (method, ordering) in [(Method::Cholesky, Ordering::Amd), (Method::Ldlt, Ordering::Identity)] {
+        let whole = Factorization::new(a.view(), method, &ordering, &opts).unwrap();
+        let analysis = Analysis::new(a.view(), method, &ordering, &opts).unwrap();
+        let mut values = vec![f64::NAN; analysis.values_len()];
+        analysis.numeric(&a.data, &mut values, &mut analysis.workspace().unwrap()).unwrap();
+        let parts = Factorization::from_parts(analysis, &a.data, values).unwrap();
+        let (mut x, mut y) = (rhs.clone(), rhs.clone());
+        whole.solve(&mut x, &opts).unwrap();
+        parts.solve(&mut y, &opts).unwrap();
+        assert_eq!(x, y, "{method:?}");
+        assert_eq!(whole.pivots(), parts.pivots());
+        assert_eq!(whole.smallest_pivot(), parts.smallest_pivot());
+        assert_eq!(whole.factor_entries(), parts.factor_entries());
+        // refactor_with: the numeric step done by the caller, into storage it chooses
+        let mut other = parts;
+        let doubled: Vec<f64> = a.data.iter().map(|v| 2.0 * v).collect();
+        let b = Matrix { data: doubled.clone(), indptr: a.indptr.clone(), indices: a.indices.clone(), n: a.n };
+        other
+            .refactor_with(b.view(), |analysis, values| {
+                *values = vec![0.0; analysis.values_len()];
+                analysis.numeric(&doubled, values, &mut analysis.workspace()?)
+            })
+            .unwrap();
+        let mut z = rhs.clone();
+        other.solve(&mut z, &opts).unwrap();
+        assert!(z.iter().zip(&x).all(|(z, x)| (2.0 * z - x).abs() <= 1e-12 * x.abs().max(1.0)));
+    }
+}
+
+#[test]
+fn the_parts_of_a_factorization_are_checked() {
+    let a = Matrix::grid(3, 0.0);
+    let opts = Options::default();
+    let analysis = Analysis::new(a.view(), Method::Cholesky, &Ordering::Amd, &opts).unwrap();
+    let len = analysis.values_len();
+    let mut workspace = analysis.workspace().unwrap();
+    let short = vec![0.0; len - 1];
+    assert!(matches!(analysis.numeric(&a.data, &mut vec![0.0; len - 1], &mut workspace), Err(Error::Shape { .. })));
+    assert!(matches!(analysis.numeric(&a.data[1..], &mut vec![0.0; len], &mut workspace), Err(Error::Shape { .. })));
+    let smaller = Matrix::grid(2, 0.0);
+    assert!(matches!(analysis.check_pattern(smaller.view()), Err(Error::Shape { .. })));
+    assert!(matches!(Factorization::from_parts(analysis, &a.data, short), Err(Error::Shape { .. })));
+    // a failed pivot names its row, in the numeric step as in the whole factorization
+    let indefinite = Matrix::grid(3, -50.0);
+    let analysis = Analysis::new(indefinite.view(), Method::Cholesky, &Ordering::Amd, &opts).unwrap();
+    let mut values = vec![0.0; analysis.values_len()];
+    let err = analysis.numeric(&indefinite.data, &mut values, &mut analysis.workspace().unwrap()).unwrap_err();
+    assert_eq!(Err(err), Factorization::new(indefinite.view(), Method::Cholesky, &Ordering::Amd, &opts).map(drop));
+}
+
+/// `P_r^T L U P_c^T` of unit lower `l` and upper `u` (dense, row-major) as CSR, and the
+/// factors by columns (the CSR of their transposes).
+fn lu_product(l: &[f64], u: &[f64], rows: &[u32], columns: &[u32], n: usize) -> (Matrix, Matrix, Matrix) {
+    let mut lu = vec![0.0; n * n];
+    for i in 0..n {
+        for j in 0..n {
+            lu[i * n + j] = (0..n).map(|k| l[i * n + k] * u[k * n + j]).sum();
+        }
+    }
+    // P_r A P_c = LU: row i of A is row rows[i] of LU, column k of A its column columns[k]
+    let mut a = vec![0.0; n * n];
+    for i in 0..n {
+        for k in 0..n {
+            a[i * n + k] = lu[rows[i] as usize * n + columns[k] as usize];
+        }
+    }
+    let csr = |m: &[f64], transpose: bool| {
+        let mut out = Matrix { n, indptr: vec![0], indices: vec![], data: vec![] };
+        for i in 0..n {
+            for j in 0..n {
+                let v = if transpose { m[j * n + i] } else { m[i * n + j] };
+                if v != 0.0 || i == j {
+                    out.indices.push(j as u32);
+                    out.data.push(v);
+                }
+            }
+            out.indptr.push(out.indices.len());
+        }
+        out
+    };
+    (csr(&a, false), csr(l, true), csr(u, true))
+}
+
+#[test]
+fn lu_factors_made_elsewhere_solve_their_matrix() {
+    let n = 7;
+    let mut state = 99u64;
+    let mut next = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((state >> 33) as f64 / (1u64 << 31) as f64) - 0.5
+    };
+    let (mut l, mut u) = (vec![0.0; n * n], vec![0.0; n * n]);
+    for i in 0..n {
+        for j in 0..n {
+            if i > j && (i + j) % 3 != 0 {
+                l[i * n + j] = next();
+            }
+            if i < j && (i * j) % 4 != 1 {
+                u[i * n + j] = next();
+            }
+        }
+        l[i * n + i] = 1.0;
+        u[i * n + i] = 2.0 + next();
+    }
+    let rows = [3, 0, 6, 1, 5, 2, 4];
+    let columns = [1, 4, 0, 6, 2, 5, 3];
+    let (a, lc, uc) = lu_product(&l, &u, &rows, &columns, n);
+    let f = LuFactors::new(lc.view(), uc.view(), &rows, &columns).unwrap();
+    assert_eq!(f.n(), n);
+    let opts = Options::default();
+    let b: Vec<f64> = (0..2 * n).map(|i| (i % 5) as f64 - 1.5).collect();
+    let mut x = b.clone();
+    f.solve(&mut x, &opts).unwrap();
+    for c in 0..2 {
+        assert!(residual(&a, &x[c * n..(c + 1) * n], &b[c * n..(c + 1) * n]) < 1e-13, "column {c}");
+    }
+    let [(lp, li, ld), _] = f.factors();
+    assert_eq!((lp, ld), (lc.indptr.as_slice(), lc.data.as_slice()));
+    assert!(li.iter().zip(&lc.indices).all(|(&a, &b)| a == b as usize));
+    // factors that are not triangular, lack a diagonal entry, or permutations that are not
+    let swapped = LuFactors::new(uc.view(), lc.view(), &rows, &columns);
+    assert!(matches!(swapped, Err(Error::Shape { .. })), "{swapped:?}");
+    let mut holed = Matrix { n, indptr: lc.indptr.clone(), indices: lc.indices.clone(), data: lc.data.clone() };
+    holed.indices.remove(0);
+    holed.data.remove(0);
+    for p in &mut holed.indptr[1..] {
+        *p -= 1;
+    }
+    assert!(matches!(LuFactors::new(holed.view(), uc.view(), &rows, &columns), Err(Error::Shape { .. })));
+    assert!(matches!(LuFactors::new(lc.view(), uc.view(), &[0, 0, 1, 2, 3, 4, 5], &columns), Err(Error::Shape { .. })));
+    assert!(matches!(f.solve(&mut [1.0; 3], &opts), Err(Error::Shape { .. })));
 }

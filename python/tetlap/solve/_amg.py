@@ -41,6 +41,18 @@ def one_blas_thread():
         yield
 
 
+def hierarchy(A: sp.csr_array):
+    """pyamg's smoothed aggregation hierarchy of a symmetric ``A`` with the options above,
+    none of which draws from NumPy's global random stream (its default prolongation
+    smoother does: different bits on every call, and the caller's stream advanced)."""
+    import pyamg
+
+    return pyamg.smoothed_aggregation_solver(
+        A, symmetry="symmetric", smooth=("jacobi", {"weighting": "local"}),
+        presmoother=("gauss_seidel", {"sweep": "forward"}),
+        postsmoother=("gauss_seidel", {"sweep": "backward"}))
+
+
 class Failed(Exception):
     """CG found ``p^T A p < 0`` (a proof that ``A`` or its preconditioner is not positive
     definite), or did not reach ``CG_RTOL`` in ``CG_MAXITER`` iterations (an ill-conditioned
@@ -52,7 +64,6 @@ def solve(A: sp.csr_array, b: np.ndarray, info, progress=None) -> np.ndarray:
     """``x`` with ``A x ~ b`` for a symmetric positive definite ``A`` (n, n) and ``b``
     (n,), by AMG-preconditioned CG; the iterations go into ``info``. Unchecked: the caller
     checks the residual."""
-    import pyamg
     from scipy.sparse.csgraph import reverse_cuthill_mckee
 
     info.solver, info.method, info.ordering = "amg", "cg + smoothed aggregation", "reverse Cuthill-McKee"
@@ -67,10 +78,7 @@ def solve(A: sp.csr_array, b: np.ndarray, info, progress=None) -> np.ndarray:
             perm = reverse_cuthill_mckee(A, symmetric_mode=True)
             Ap = A[perm][:, perm].tocsr()
         with info.phase("setup"):
-            ml = pyamg.smoothed_aggregation_solver(
-                Ap, symmetry="symmetric", smooth=("jacobi", {"weighting": "local"}),
-                presmoother=("gauss_seidel", {"sweep": "forward"}),
-                postsmoother=("gauss_seidel", {"sweep": "backward"}))
+            ml = hierarchy(Ap)
         residuals: list[float] = []
         bar = _bar(progress)
         callback = _Progress(bar, residuals) if bar is not None else None

@@ -17,7 +17,7 @@ import warnings
 import numpy as np
 import scipy.sparse as sp
 
-from .._interrupt import interruptible
+from .. import _interrupt
 from ..analysis import NSD_RTOL
 from ..errors import SolveError
 from . import _amg, _checks
@@ -40,12 +40,10 @@ def certified(A: sp.csr_array) -> bool:
 
 
 def _lu(A, b, info):
-    from scipy.sparse.linalg import spsolve
-
     info.solver, info.method, info.ordering, info.iterations = "lu", "SuperLU", "colamd", None
     with info.phase("factorization"), warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a singular matrix is reported by the check
-        return np.atleast_1d(interruptible(spsolve, sp.csc_array(A), b))
+        return np.atleast_1d(_interrupt.spsolve(sp.csc_array(A), b))
 
 
 def _refined(A, b, info, progress):
@@ -54,7 +52,7 @@ def _refined(A, b, info, progress):
     if F._tiny is not None:
         raise SolveError(F._tiny)
     with info.phase("solve"):
-        x = interruptible(F._raw, b[:, None])[:, 0]
+        x = F._raw(b[:, None])[:, 0]
         if np.isfinite(x).all():
             x = _checks.refine(A, x, b, lambda r: F._raw(r[:, None])[:, 0])
     return x

@@ -1,20 +1,19 @@
 """METIS's nested dissection (pymetis), in a child process for large graphs: pymetis holds
 the GIL for its whole call (2.4 s at 1M tets), so in this process Ctrl-C could not be
-answered during it. The child is ``python -m tetlap.solve._metis`` (not multiprocessing,
-which would re-import the user's main script), given the graph in a temporary file and
-killed on Ctrl-C."""
+answered during it. The child is forked (:func:`tetlap._interrupt.forked`): it reads the
+graph from the memory it shares with this process and sends the order back through an
+anonymous shared-memory file, so no file is left behind; Ctrl-C kills it, and it dies with
+this process (a SIGTERM or SIGKILL of this process leaves no orphan). Where fork is not
+available (Windows, macOS) METIS runs in this process, and Ctrl-C waits for it."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-import tempfile
-
 import numpy as np
 
+from .._interrupt import FORK, forked
 
-def order(xadj: np.ndarray, adjncy: np.ndarray) -> np.ndarray:
+
+def order(xadj: np.ndarray, adjncy: np.ndarray) -> np.ndarray | None:
     """The nested-dissection order (int64) of the graph ``(xadj, adjncy)`` (int32 CSR of a
     symmetric pattern without self-loops: METIS hangs or crashes on any other), or None
     when METIS fails."""
@@ -28,31 +27,11 @@ def order(xadj: np.ndarray, adjncy: np.ndarray) -> np.ndarray:
 
 
 def order_in_child(xadj: np.ndarray, adjncy: np.ndarray) -> np.ndarray | None:
-    """:func:`order` in a child process, waiting in slices of 0.1 s (Ctrl-C kills the
-    child and raises KeyboardInterrupt here); None if the child fails."""
-    with tempfile.TemporaryDirectory() as folder:
-        graph, result = os.path.join(folder, "graph.npz"), os.path.join(folder, "order.npy")
-        np.savez(graph, xadj=xadj, adjncy=adjncy)
-        p = subprocess.Popen([sys.executable, "-m", "tetlap.solve._metis", graph, result],
-                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                             stderr=subprocess.DEVNULL)
-        try:
-            while True:
-                try:
-                    p.wait(timeout=0.1)
-                    break
-                except subprocess.TimeoutExpired:
-                    continue
-        finally:
-            if p.poll() is None:
-                p.kill()
-                p.wait()
-        return np.load(result) if p.returncode == 0 else None
-
-
-if __name__ == "__main__":
-    data = np.load(sys.argv[1])
-    perm = order(data["xadj"], data["adjncy"])
-    if perm is None:
-        sys.exit(1)
-    np.save(sys.argv[2], perm)
+    """:func:`order` in a child process (Ctrl-C kills it and raises KeyboardInterrupt
+    here); None if METIS or the child fails."""
+    if not FORK:
+        return order(xadj, adjncy)
+    try:
+        return forked(order, xadj, adjncy)
+    except (ChildProcessError, MemoryError):
+        return None

@@ -70,6 +70,11 @@ pub fn shape_error(py: Python<'_>, message: String) -> PyErr {
     raise(py, &classes(py).shape, message, &[])
 }
 
+/// `tetlap.errors.SolveError(message)`.
+pub fn solve_error(py: Python<'_>, message: String) -> PyErr {
+    raise(py, &classes(py).solve, message, &[])
+}
+
 /// The exception for a core error: the class, a message in Python terms and the offending
 /// element, vertex or index as attributes.
 pub fn to_py(py: Python<'_>, e: Error) -> PyErr {

@@ -7,6 +7,8 @@
 //! API, with its array-like conversions and SciPy wrapping, is the Python package `tetlap`.
 
 mod analysis;
+#[cfg(target_os = "linux")]
+mod child;
 mod convert;
 mod derivatives;
 mod dual;
@@ -42,14 +44,15 @@ mod _core {
     #[pymodule_export]
     use crate::regular::{regular_conditions, regular_masses, regular_search, regular_signs};
     #[pymodule_export]
-    use crate::solve::PyFactor;
+    use crate::solve::{PyFactor, PyLu};
 
     #[pymodule_init]
     fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
         crate::errors::init(m.py())?;
         m.add("MAX_THREADS", tetlap::max_threads())?;
         m.add("DELAUNAY_RTOL", tetlap::DELAUNAY_RTOL)?;
-        m.add("MAX_GROUP", tetlap::MAX_GROUP)
+        m.add("MAX_GROUP", tetlap::MAX_GROUP)?;
+        m.add("FACTOR_CHILD_MIN", crate::solve::CHILD_MIN_VALUES)
     }
 
     /// One pass of the one-shot API: `request` is `("laplacian", kind)` (CSR arrays

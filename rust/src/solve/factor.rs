@@ -17,6 +17,7 @@ use faer::linalg::cholesky::llt::factor::LltError;
 use faer::sparse::FaerError;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
+use std::ops::DerefMut;
 
 /// Which factorization.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,11 +56,39 @@ pub struct Inertia {
     pub positive: usize,
 }
 
+/// The symbolic analysis of a sparse symmetric pattern (fill-reducing ordering,
+/// elimination tree, supernodes): the half of a [`Factorization`] that depends on the
+/// pattern only. [`Analysis::numeric`] factorizes values on it into a caller's slice, a pure
+/// function of its inputs (a caller may run it where it can be abandoned, such as a child
+/// process), and [`Factorization::from_parts`] takes the result.
+///
+/// Only the upper triangle of the CSR input is read (for a symmetric matrix, the lower
+/// triangle of its CSC form); the caller checks symmetry.
+#[derive(Debug)]
+pub struct Analysis {
+    method: Method,
+    indptr: Vec<usize>,
+    indices: Vec<usize>,
+    symbolic: SymbolicCholesky<usize>,
+}
+
+/// The scratch memory of [`Analysis::numeric`] ([`Analysis::workspace`]), allocated ahead
+/// so that the factorization itself allocates nothing large.
+pub struct Workspace(MemBuffer);
+
+impl std::fmt::Debug for Workspace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Workspace")
+    }
+}
+
 /// A sparse symmetric factorization of an `n x n` matrix, reusable for many right-hand
 /// sides and, through [`Factorization::refactor`], for new values on the same pattern.
 ///
 /// Only the upper triangle of the CSR input is read (for a symmetric matrix, the lower
-/// triangle of its CSC form); the caller checks symmetry.
+/// triangle of its CSC form); the caller checks symmetry. The factor's values live in a
+/// `V` (a `Vec<f64>` unless the caller gives other storage to
+/// [`Factorization::from_parts`], such as memory shared with another process).
 ///
 /// ```
 /// use tetlap::solve::{Factorization, Method, Ordering};
@@ -79,15 +108,19 @@ pub struct Inertia {
 /// let mut y = [1.0, 0.0, 1.0];
 /// f.solve(&mut y, &opts)?;
 /// assert!(y.iter().all(|v| (v - 0.5).abs() < 1e-14));
+/// // the same in two steps: the analysis, then the values into storage of the caller's
+/// let (analysis, mut values) = f.into_parts();
+/// analysis.numeric(&data, &mut values, &mut analysis.workspace()?)?;
+/// let f = Factorization::from_parts(analysis, &data, values)?;
+/// let mut z = [1.0, 0.0, 1.0];
+/// f.solve(&mut z, &opts)?;
+/// assert_eq!(z, x);
 /// # Ok::<(), tetlap::Error>(())
 /// ```
 #[derive(Debug)]
-pub struct Factorization {
-    method: Method,
-    indptr: Vec<usize>,
-    indices: Vec<usize>,
-    symbolic: SymbolicCholesky<usize>,
-    values: Vec<f64>,
+pub struct Factorization<V = Vec<f64>> {
+    analysis: Analysis,
+    values: V,
     /// [`Factorization::smallest_pivot`].
     smallest: (usize, f64),
 }
@@ -104,9 +137,9 @@ fn buffer(req: StackReq) -> Result<MemBuffer> {
     MemBuffer::try_new(req).map_err(|_| Error::OutOfMemory { what: "the factorization's workspace" })
 }
 
-impl Factorization {
-    /// The symbolic analysis (ordering, elimination tree, supernodes) and the numeric
-    /// factorization of `a` (any square CSR layout: [`CsrRef::check_shape`]).
+impl Analysis {
+    /// The symbolic analysis (ordering, elimination tree, supernodes) of the pattern of `a`
+    /// (any square CSR layout: [`CsrRef::check_shape`]; its values are not read).
     pub fn new(a: CsrRef<'_>, method: Method, ordering: &Ordering, opts: &Options) -> Result<Self> {
         opts.check()?;
         a.check_shape(a.n, "the matrix to factorize")?;
@@ -135,20 +168,12 @@ impl Factorization {
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &indptr, None, &indices);
         let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, ordering, CholeskySymbolicParams::default())
             .map_err(faer_error)?;
-        let mut values = Vec::new();
-        values.try_reserve_exact(symbolic.len_val()).map_err(|_| Error::OutOfMemory { what: "the factor" })?;
-        values.resize(symbolic.len_val(), 0.0);
-        let mut f = Factorization { method, indptr, indices, symbolic, values, smallest: (0, f64::INFINITY) };
-        opts.cancelled()?;
-        f.numeric(a.data)?;
-        Ok(f)
+        Ok(Analysis { method, indptr, indices, symbolic })
     }
 
-    /// Factorizes new values of the same pattern (the same `indptr` and `indices`, else
-    /// [`Error::Shape`]), reusing the symbolic analysis. On an error the factorization
-    /// keeps no usable values: refactor again before solving.
-    pub fn refactor(&mut self, a: CsrRef<'_>, opts: &Options) -> Result<()> {
-        opts.check()?;
+    /// [`Error::Shape`] unless `a` has the analysed pattern (the same `indptr` and
+    /// `indices`) and one value per stored entry.
+    pub fn check_pattern(&self, a: CsrRef<'_>) -> Result<()> {
         let same = a.n + 1 == self.indptr.len()
             && a.indptr == self.indptr.as_slice()
             && a.indices.len() == self.indices.len()
@@ -163,19 +188,44 @@ impl Factorization {
         if a.data.len() != self.indices.len() {
             return Err(Error::Shape { what: "refactor: one value per stored entry is needed".into() });
         }
-        opts.cancelled()?;
-        self.numeric(a.data)
+        Ok(())
     }
 
-    fn numeric(&mut self, data: &[f64]) -> Result<()> {
-        let n = self.n();
-        let a = SparseColMatRef::new(SymbolicSparseColMatRef::new_checked(n, n, &self.indptr, None, &self.indices), data);
+    /// The number of stored values of the factor `L` (its fill): the length of the
+    /// `values` of [`Analysis::numeric`].
+    pub fn values_len(&self) -> usize {
+        self.symbolic.len_val()
+    }
+
+    /// The scratch memory of [`Analysis::numeric`].
+    pub fn workspace(&self) -> Result<Workspace> {
         let req = match self.method {
             Method::Cholesky => self.symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
             Method::Ldlt => self.symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
         };
-        let mut mem = buffer(req)?;
-        let stack = MemStack::new(&mut mem);
+        buffer(req).map(Workspace)
+    }
+
+    /// The numeric factorization of the values `data` (one per stored entry of the analysed
+    /// pattern, in its order) into `values` ([`Analysis::values_len`] long, else
+    /// [`Error::Shape`]), on one thread, reading nothing but its arguments. Errors:
+    /// [`Error::NotPositiveDefinite`] (Cholesky) or [`Error::Singular`] (`LDL^T`) naming
+    /// the row of the failed pivot; `values` then holds no usable factor.
+    pub fn numeric(&self, data: &[f64], values: &mut [f64], workspace: &mut Workspace) -> Result<()> {
+        let n = self.n();
+        if data.len() != self.indices.len() || values.len() != self.values_len() {
+            return Err(Error::Shape {
+                what: format!(
+                    "the numeric factorization takes {} values and writes {}, given {} and {}",
+                    self.indices.len(),
+                    self.values_len(),
+                    data.len(),
+                    values.len()
+                ),
+            });
+        }
+        let a = SparseColMatRef::new(SymbolicSparseColMatRef::new_checked(n, n, &self.indptr, None, &self.indices), data);
+        let stack = MemStack::new(&mut workspace.0);
         // faer counts the failed pivot from 1 in the simplicial form; clamped either way
         let row = |index: usize| {
             let k = index.saturating_sub(1).min(n.saturating_sub(1));
@@ -184,17 +234,57 @@ impl Factorization {
         match self.method {
             Method::Cholesky => self
                 .symbolic
-                .factorize_numeric_llt(&mut self.values, a, Side::Lower, LltRegularization::default(), Par::Seq, stack, Default::default())
+                .factorize_numeric_llt(values, a, Side::Lower, LltRegularization::default(), Par::Seq, stack, Default::default())
                 .map(|_| ())
                 .map_err(|LltError::NonPositivePivot { index }| Error::NotPositiveDefinite { row: row(index) }),
             Method::Ldlt => self
                 .symbolic
-                .factorize_numeric_ldlt(&mut self.values, a, Side::Lower, LdltRegularization::default(), Par::Seq, stack, Default::default())
+                .factorize_numeric_ldlt(values, a, Side::Lower, LdltRegularization::default(), Par::Seq, stack, Default::default())
                 .map(|_| ())
                 .map_err(|LdltError::ZeroPivot { index }| Error::Singular { row: row(index) }),
-        }?;
-        // each pivot against its row's diagonal entry (rows with a zero diagonal left out)
-        let mut diagonal = vec![0.0f64; n];
+        }
+    }
+
+    /// The matrix order `n`.
+    pub fn n(&self) -> usize {
+        self.indptr.len() - 1
+    }
+
+    /// The method.
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
+    /// Whether faer chose the supernodal (dense blocks) rather than the simplicial form.
+    pub fn supernodal(&self) -> bool {
+        matches!(self.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_))
+    }
+
+    /// The pivots of the factor `values`: see [`Factorization::pivots`].
+    fn pivots(&self, values: &[f64]) -> Vec<f64> {
+        let square = |d: f64| if self.method == Method::Cholesky { d * d } else { d };
+        match self.symbolic.raw() {
+            // the diagonal entry leads every column of the simplicial factor
+            SymbolicCholeskyRaw::Simplicial(s) => {
+                s.col_ptr()[..self.n()].iter().map(|&start| square(values[start])).collect()
+            }
+            SymbolicCholeskyRaw::Supernodal(s) => {
+                // LL^T and LDL^T share the supernodal layout; the diagonal of each block
+                let factor = SupernodalLdltRef::new(s, values);
+                (0..s.n_supernodes())
+                    .flat_map(|i| {
+                        let block = factor.supernode(i).val();
+                        (0..block.ncols()).map(move |j| square(block[(j, j)]))
+                    })
+                    .collect()
+            }
+        }
+    }
+
+    /// [`Factorization::smallest_pivot`] of the factor `values` of `data`: each pivot
+    /// against its row's diagonal entry (rows with a zero diagonal left out).
+    fn smallest_pivot(&self, data: &[f64], values: &[f64]) -> (usize, f64) {
+        let mut diagonal = vec![0.0f64; self.n()];
         for (i, range) in self.indptr.windows(2).enumerate() {
             for (&j, &v) in self.indices[range[0]..range[1]].iter().zip(&data[range[0]..range[1]]) {
                 if i == j {
@@ -202,14 +292,93 @@ impl Factorization {
                 }
             }
         }
-        self.smallest = (0, f64::INFINITY);
-        for (k, d) in self.pivots().into_iter().enumerate() {
+        let mut smallest = (0, f64::INFINITY);
+        for (k, d) in self.pivots(values).into_iter().enumerate() {
             let i = self.symbolic.perm().map_or(k, |p| p.arrays().0[k]);
             let relative = d.abs() / diagonal[i].abs();
-            if diagonal[i] != 0.0 && !(relative >= self.smallest.1) {
-                self.smallest = (i, relative);
+            if diagonal[i] != 0.0 && !(relative >= smallest.1) {
+                smallest = (i, relative);
             }
         }
+        smallest
+    }
+}
+
+impl Factorization {
+    /// The symbolic analysis ([`Analysis::new`]) and the numeric factorization of `a` (any
+    /// square CSR layout: [`CsrRef::check_shape`]).
+    pub fn new(a: CsrRef<'_>, method: Method, ordering: &Ordering, opts: &Options) -> Result<Self> {
+        let analysis = Analysis::new(a, method, ordering, opts)?;
+        let mut values = Vec::new();
+        values.try_reserve_exact(analysis.values_len()).map_err(|_| Error::OutOfMemory { what: "the factor" })?;
+        values.resize(analysis.values_len(), 0.0);
+        let mut workspace = analysis.workspace()?;
+        opts.cancelled()?;
+        analysis.numeric(a.data, &mut values, &mut workspace)?;
+        Factorization::from_parts(analysis, a.data, values)
+    }
+}
+
+impl<V: DerefMut<Target = [f64]>> Factorization<V> {
+    /// The factorization of `data` (one value per stored entry of the analysed pattern)
+    /// whose factor `values` [`Analysis::numeric`] computed ([`Error::Shape`] if a length
+    /// differs). Values computed otherwise make wrong solves, never undefined behaviour.
+    pub fn from_parts(analysis: Analysis, data: &[f64], values: V) -> Result<Self> {
+        if data.len() != analysis.indices.len() || values.len() != analysis.values_len() {
+            return Err(Error::Shape {
+                what: format!(
+                    "a factorization takes {} values and a factor of {}, given {} and {}",
+                    analysis.indices.len(),
+                    analysis.values_len(),
+                    data.len(),
+                    values.len()
+                ),
+            });
+        }
+        let smallest = analysis.smallest_pivot(data, &values);
+        Ok(Factorization { analysis, values, smallest })
+    }
+
+    /// The analysis and the factor's storage, for [`Analysis::numeric`] of new values into
+    /// the same storage.
+    pub fn into_parts(self) -> (Analysis, V) {
+        (self.analysis, self.values)
+    }
+
+    /// The factor's stored values (faer's layout), in their storage.
+    pub fn values(&self) -> &V {
+        &self.values
+    }
+
+    /// The symbolic analysis.
+    pub fn analysis(&self) -> &Analysis {
+        &self.analysis
+    }
+
+    /// Factorizes new values of the same pattern (the same `indptr` and `indices`, else
+    /// [`Error::Shape`]), reusing the symbolic analysis and the factor's storage. On an
+    /// error the factorization keeps no usable values: refactor again before solving.
+    pub fn refactor(&mut self, a: CsrRef<'_>, opts: &Options) -> Result<()> {
+        opts.check()?;
+        self.refactor_with(a, |analysis, values| {
+            let mut workspace = analysis.workspace()?;
+            opts.cancelled()?;
+            analysis.numeric(a.data, values, &mut workspace)
+        })
+    }
+
+    /// [`Factorization::refactor`] whose numeric step is `numeric(analysis, values)`: the
+    /// caller's way to run [`Analysis::numeric`] of `a.data` (elsewhere, or into other
+    /// storage, which it may put in place of `values`).
+    pub fn refactor_with(&mut self, a: CsrRef<'_>, numeric: impl FnOnce(&Analysis, &mut V) -> Result<()>) -> Result<()> {
+        self.analysis.check_pattern(a)?;
+        numeric(&self.analysis, &mut self.values)?;
+        if self.values.len() != self.analysis.values_len() {
+            return Err(Error::Shape {
+                what: format!("a factor of {} values was given for {}", self.values.len(), self.analysis.values_len()),
+            });
+        }
+        self.smallest = self.analysis.smallest_pivot(a.data, &self.values);
         Ok(())
     }
 
@@ -234,15 +403,16 @@ impl Factorization {
             });
         }
         let k = rhs.len() / n;
-        let mut mem = buffer(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq))?;
+        let symbolic = &self.analysis.symbolic;
+        let mut mem = buffer(symbolic.solve_in_place_scratch::<f64>(k, Par::Seq))?;
         let stack = MemStack::new(&mut mem);
         let rhs = MatMut::from_column_major_slice_mut(rhs, n, k);
-        match self.method {
+        match self.method() {
             Method::Cholesky => {
-                LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
+                LltRef::new(symbolic, &self.values).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
             }
             Method::Ldlt => {
-                LdltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
+                LdltRef::new(symbolic, &self.values).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
             }
         }
         Ok(())
@@ -252,7 +422,7 @@ impl Factorization {
     /// factorization exists only for positive definite matrices (all `n` positive).
     pub fn inertia(&self) -> Inertia {
         let mut inertia = Inertia { negative: 0, zero: 0, positive: 0 };
-        if self.method == Method::Cholesky {
+        if self.method() == Method::Cholesky {
             inertia.positive = self.n();
             return inertia;
         }
@@ -273,33 +443,17 @@ impl Factorization {
     /// diagonal shows a matrix singular to working precision: for a positive definite
     /// matrix every pivot lies between its smallest and its largest eigenvalue.
     pub fn pivots(&self) -> Vec<f64> {
-        let square = |d: f64| if self.method == Method::Cholesky { d * d } else { d };
-        match self.symbolic.raw() {
-            // the diagonal entry leads every column of the simplicial factor
-            SymbolicCholeskyRaw::Simplicial(s) => {
-                s.col_ptr()[..self.n()].iter().map(|&start| square(self.values[start])).collect()
-            }
-            SymbolicCholeskyRaw::Supernodal(s) => {
-                // LL^T and LDL^T share the supernodal layout; the diagonal of each block
-                let factor = SupernodalLdltRef::new(s, &self.values);
-                (0..s.n_supernodes())
-                    .flat_map(|i| {
-                        let block = factor.supernode(i).val();
-                        (0..block.ncols()).map(move |j| square(block[(j, j)]))
-                    })
-                    .collect()
-            }
-        }
+        self.analysis.pivots(&self.values)
     }
 
     /// The matrix order `n`.
     pub fn n(&self) -> usize {
-        self.indptr.len() - 1
+        self.analysis.n()
     }
 
     /// The method.
     pub fn method(&self) -> Method {
-        self.method
+        self.analysis.method()
     }
 
     /// The stored values of the factor `L` (its fill).
@@ -309,12 +463,12 @@ impl Factorization {
 
     /// Whether faer chose the supernodal (dense blocks) rather than the simplicial form.
     pub fn supernodal(&self) -> bool {
-        matches!(self.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_))
+        self.analysis.supernodal()
     }
 }
 
 /// `order` as `usize` indices after checking it is a permutation of `0..n`.
-fn permutation(order: &[u32], n: usize) -> Result<Vec<usize>> {
+pub(super) fn permutation(order: &[u32], n: usize) -> Result<Vec<usize>> {
     let mut seen = vec![false; n];
     if order.len() != n {
         return Err(Error::Shape { what: format!("the ordering has {} entries, the matrix {n} rows", order.len()) });

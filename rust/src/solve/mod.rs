@@ -7,11 +7,18 @@
 //!   computed, such as a nested dissection); [`Factorization::refactor`] reuses the
 //!   symbolic analysis for a matrix of the same pattern; [`Factorization::inertia`]
 //!   counts the signs of `D` (Sylvester's law of inertia).
+//! * [`Analysis`]: its symbolic half alone; [`Analysis::numeric`] factorizes values into a
+//!   caller's slice (a pure function, which a caller may run where it can be abandoned, such
+//!   as a child process) and [`Factorization::from_parts`] takes them.
+//! * [`LuFactors`]: solves with the factors `P_r A P_c = L U` of a sparse LU made elsewhere
+//!   (SciPy's SuperLU, in a child process of the Python package).
 //!
 //! The factorization runs on one thread: faer's parallel dense kernels give results that
 //! differ in the last bits between thread counts (measured in BENCHMARKS.md), and every
 //! result of this crate is bitwise the same for any thread count.
 
 mod factor;
+mod lu;
 
-pub use factor::{Factorization, Inertia, Method, Ordering};
+pub use factor::{Analysis, Factorization, Inertia, Method, Ordering, Workspace};
+pub use lu::LuFactors;

@@ -1,0 +1,194 @@
+"""Derivatives of eigenvalues with respect to the mesh.
+
+For ``-L v = lambda M v`` with ``v^T M v = 1`` (the pairs :func:`tetlap.solve.eigs`
+returns) and a simple eigenvalue,
+
+    d lambda = -v^T dL v - lambda v^T dM v,
+
+so ``d lambda / dV`` is the gradient of the Dirichlet energy ``-v^T L v`` minus ``lambda``
+times that of the mass form ``v^T M v``, both at the fixed ``v``: two passes of the
+operators' exact vector-Jacobian products (:func:`tetlap.dirichlet_energy`,
+:func:`tetlap.mass_energy`). Fixed (Dirichlet) vertices are zero in ``v``: the same
+formula differentiates the free block, and the gradient includes the fixed vertices'
+positions, which move the free block's entries.
+
+The eigenvalues of a cluster (near-equal: closer than ``1e-6`` relative, the clusters of
+:func:`tetlap.solve.eigs`) have no individual derivatives; the mean of a cluster has,
+``sum_j (-v_j^T dL v_j - lambda_j v_j^T dM v_j) / c`` over any ``M``-orthonormal basis of
+its eigenvectors, and it is what every member of the cluster gets.
+
+* :func:`eigenvalue_gradients`: ``d lambda_i / dV`` for every returned pair, (k, n, d).
+* :func:`eigenvalue_vjp`: ``sum_i g_i d lambda_i / dV`` for given ``g`` in at most four
+  passes, whatever ``k`` (the backward step of a loss of the spectrum).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _arrays
+from ._docs import shared_docs
+from ._names import public_dir
+from .derivatives import dirichlet_energy, mass_energy
+from .errors import NonFiniteError, ShapeError
+from .solve._eigs import CLUSTER_RTOL
+
+__all__ = ["eigenvalue_gradients", "eigenvalue_vjp", "clusters"]
+__dir__ = public_dir(globals())
+
+
+def clusters(eigenvalues) -> np.ndarray:
+    """(k,) int64: the cluster of each eigenvalue (ascending input), numbered from 0:
+    consecutive values closer than ``1e-6`` of the largest magnitude among them share
+    one."""
+    lam = _arrays._as_array(eigenvalues, "eigenvalues").astype(np.float64)
+    if lam.ndim != 1:
+        raise ShapeError(f"eigenvalues must have shape (k,), got {lam.shape}")
+    if len(lam) < 2:
+        return np.zeros(len(lam), dtype=np.int64)
+    width = CLUSTER_RTOL * np.maximum(np.abs(lam[1:]), np.abs(lam[:-1]))
+    return np.concatenate([[0], np.cumsum(np.diff(lam) > width)]).astype(np.int64)
+
+
+def _pairs(V, T, eigenvalues, eigenvectors):
+    V, T = _arrays.mesh(V, T)
+    n = len(_arrays._as_array(V, "V"))
+    lam = _arrays._as_array(eigenvalues, "eigenvalues").astype(np.float64)
+    vec = _arrays._as_array(eigenvectors, "eigenvectors").astype(np.float64)
+    if lam.ndim != 1 or vec.shape != (n, len(lam)):
+        raise ShapeError(f"eigenvalues (k,) and eigenvectors (n, k) = ({n}, k) expected, got "
+                         f"{lam.shape} and {vec.shape}")
+    if len(lam) > 1 and (np.diff(lam) < 0).any():
+        raise ShapeError("eigenvalues must be ascending, as tetlap.solve.eigs returns them")
+    for name, x in (("eigenvalues", lam), ("eigenvectors", vec)):
+        if not np.isfinite(x).all():
+            raise NonFiniteError(f"{name} holds a non-finite value")
+    return V, T, lam, vec
+
+
+def _split(columns: np.ndarray, coefficients: np.ndarray):
+    """``columns`` scaled by ``sqrt(|c|)``, split by the sign of ``c``: ``(positive,
+    negative)``, so that ``sum_j c_j q(v_j) = q(P) - q(N)`` for a quadratic form ``q``
+    summed over columns."""
+    root = np.sqrt(np.abs(coefficients))[None, :]
+    return columns[:, coefficients > 0] * root[:, coefficients > 0], \
+        columns[:, coefficients < 0] * root[:, coefficients < 0]
+
+
+def _gradient(V, T, vec, dirichlet_weights, mass_weights, kind, mass, options):
+    """``sum_j a_j d(-v_j^T L v_j)/dV + b_j d(v_j^T M v_j)/dV`` in at most four passes."""
+    out = np.zeros(np.asarray(V, dtype=float).shape)
+    for weights, energy, k in ((dirichlet_weights, dirichlet_energy, kind),
+                               (mass_weights, mass_energy, mass)):
+        for sign, F in zip((1.0, -1.0), _split(vec, weights)):
+            if F.shape[1]:
+                out += sign * energy(V, T, F, k, **options)[1]
+    return out
+
+
+@shared_docs
+def eigenvalue_vjp(V, T, eigenvalues, eigenvectors, deigenvalues, kind="primal",
+                   mass="barycentric", *, boundary_centres="circumcentric", weights=None,
+                   degenerate="raise", threads=None) -> np.ndarray:
+    """``sum_i g_i d lambda_i / dV`` for the pairs of ``-L v = lambda M v`` and cotangents
+    ``g = deigenvalues``: the gradient of a loss of the spectrum.
+
+    Parameters
+    ----------
+    {tet_mesh}
+    eigenvalues : (k,) array-like, ascending
+        From :func:`tetlap.solve.eigs` on the operators of this mesh, ``kind`` and
+        ``mass``.
+    eigenvectors : (n, k) array-like
+        Their ``M``-orthonormal eigenvectors (zero on fixed vertices), as ``eigs``
+        returns them.
+    deigenvalues : (k,) array-like
+        ``g_i = d loss / d lambda_i``; within a cluster only their sum counts (a cluster
+        has the derivative of its mean only).
+    {kind}
+    mass : {{"barycentric", "circumcentric", "fem"}}, default "barycentric"
+        The mass matrix's kind (the ``"mixed"`` mass is not differentiable).
+    {options}
+
+    Returns
+    -------
+    (n, d) float64
+        ``sum_i g_i d lambda_i / dV`` (with ``g`` averaged over each cluster). Sign
+        convention: ``-L v = lambda M v``, ``lambda >= 0`` for the primal.
+
+    Examples
+    --------
+    >>> import numpy as np, tetlap
+    >>> V, T = tetlap.meshes.ball(600, seed=1)
+    >>> L, M = tetlap.operators(V, T, "primal", "barycentric")
+    >>> lam, vec = tetlap.solve.eigs(L, M, 5, tetlap.diagnostics.boundary_vertices(V, T))
+    >>> g = tetlap.spectral.eigenvalue_vjp(V, T, lam, vec, np.ones(5))
+    >>> g.shape                                        # d (sum of the 5 values) / dV
+    (600, 3)
+    >>> bool(abs(np.sum(g * V)) > 0)                    # scaling the ball moves them
+    True
+    """
+    V, T, lam, vec = _pairs(V, T, eigenvalues, eigenvectors)
+    g = _arrays._as_array(deigenvalues, "deigenvalues").astype(np.float64)
+    if g.shape != lam.shape:
+        raise ShapeError(f"deigenvalues must have shape {lam.shape}, one per eigenvalue, "
+                         f"got {g.shape}")
+    if not np.isfinite(g).all():
+        raise NonFiniteError("deigenvalues holds a non-finite value")
+    groups = clusters(lam)
+    g = (np.bincount(groups, weights=g) / np.bincount(groups))[groups]
+    options = {"boundary_centres": boundary_centres, "weights": weights, "degenerate": degenerate,
+               "threads": threads}
+    return _gradient(V, T, vec, g, -g * lam, kind, mass, options)
+
+
+@shared_docs
+def eigenvalue_gradients(V, T, eigenvalues, eigenvectors, kind="primal",
+                         mass="barycentric", *, boundary_centres="circumcentric", weights=None,
+                         degenerate="raise", threads=None) -> np.ndarray:
+    """``d lambda_i / dV`` of every pair of ``-L v = lambda M v``: ``-v_i^T dL v_i -
+    lambda_i v_i^T dM v_i``; the members of a cluster get the derivative of its mean.
+
+    Parameters
+    ----------
+    {tet_mesh}
+    eigenvalues : (k,) array-like, ascending
+        From :func:`tetlap.solve.eigs` on the operators of this mesh, ``kind`` and
+        ``mass``.
+    eigenvectors : (n, k) array-like
+        Their ``M``-orthonormal eigenvectors (zero on fixed vertices).
+    {kind}
+    mass : {{"barycentric", "circumcentric", "fem"}}, default "barycentric"
+        The mass matrix's kind (the ``"mixed"`` mass is not differentiable).
+    {options}
+
+    Returns
+    -------
+    (k, n, d) float64
+        ``[i] = d lambda_i / dV``; two passes of the operators' products per cluster (use
+        :func:`eigenvalue_vjp` for a weighted sum in at most four).
+
+    Examples
+    --------
+    The derivative of an eigenvalue of the unit ball under a uniform scaling ``V (1 +
+    t)`` is ``-2 lambda`` (``lambda`` scales as ``1 / r^2``):
+
+    >>> import numpy as np, tetlap
+    >>> V, T = tetlap.meshes.ball(600, seed=1)
+    >>> L, M = tetlap.operators(V, T, "primal", "fem")
+    >>> lam, vec = tetlap.solve.eigs(L, M, 3, tetlap.diagnostics.boundary_vertices(V, T))
+    >>> G = tetlap.spectral.eigenvalue_gradients(V, T, lam, vec, mass="fem")
+    >>> bool(np.allclose(np.einsum("knd,nd->k", G, V), -2 * lam))
+    True
+    """
+    V, T, lam, vec = _pairs(V, T, eigenvalues, eigenvectors)
+    groups = clusters(lam)
+    options = {"boundary_centres": boundary_centres, "weights": weights, "degenerate": degenerate,
+               "threads": threads}
+    out = np.empty((len(lam),) + np.asarray(V, dtype=float).shape)
+    for c in range(int(groups.max()) + 1 if len(lam) else 0):
+        members = np.flatnonzero(groups == c)
+        share = np.full(len(members), 1.0 / len(members))
+        out[members] = _gradient(V, T, vec[:, members], share, -share * lam[members],
+                                 kind, mass, options)
+    return out
