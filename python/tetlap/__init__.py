@@ -42,6 +42,7 @@ _EXPORTS = {
     ".fields": ("harmonic", "Harmonic"),
     ".analysis": ("check", "Report"),
     ".meshes": ("meshes",),
+    ".coefficient": ("coefficient",),
     ".diagnostics": ("diagnostics",),
     ".solve": ("solve",),
     ".io": ("io",),
@@ -50,7 +51,7 @@ _EXPORTS = {
     ".errors": ("TetlapError", "ShapeError", "DtypeError", "EmptyMeshError",
                 "IndexRangeError", "NonFiniteError", "RepeatedVertexError",
                 "DegenerateElementError", "OptionError", "MeshFileError",
-                "CompatibilityError", "SolveError", "InternalError"),
+                "CompatibilityError", "SolveError", "CoefficientError", "InternalError"),
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 __all__ = list(_WHERE)
@@ -80,13 +81,13 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, imported eagerly
-    from . import dec, diagnostics, info, io, meshes, solve
+    from . import coefficient, dec, diagnostics, info, io, meshes, solve
     from ._core import MAX_THREADS
     from .analysis import Report, check
     from .assembly import (Triplets, edge_weights, element_contributions, laplacian, mass,
                            operators, tet_contributions, triplets)
     from .derivatives import VJP, dirichlet_energy, mass_energy, vjp
-    from .errors import (CompatibilityError, DegenerateElementError, DtypeError,
+    from .errors import (CoefficientError, CompatibilityError, DegenerateElementError, DtypeError,
                          EmptyMeshError, IndexRangeError, InternalError, MeshFileError,
                          NonFiniteError, OptionError, RepeatedVertexError, ShapeError,
                          SolveError, TetlapError)

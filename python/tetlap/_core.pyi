@@ -13,7 +13,8 @@ import numpy as np
 import numpy.typing as npt
 from typing_extensions import Self
 
-__all__ = ["assemble", "check_options", "vjp", "Mesh", "MAX_THREADS", "DELAUNAY_RTOL",
+__all__ = ["assemble", "check_options", "check_coefficient", "vjp", "Mesh", "MAX_THREADS",
+           "DELAUNAY_RTOL",
            "MAX_GROUP", "faces", "duplicates", "edges", "quality", "non_delaunay",
            "check_operator", "negative_semidefinite", "element_certificate",
            "regular_conditions", "regular_signs", "regular_search", "regular_masses",
@@ -40,9 +41,18 @@ _Request = (tuple[Literal["laplacian", "contributions", "triplets", "edge_weight
 # mass) -> (_CsrArrays, _MassArrays); ("contributions", kind) -> (m, 6) | (m, 3) float64;
 # ("triplets", kind) -> (rows int64, cols int64, vals); ("edge_weights", kind) ->
 # (edges (E, 2) int64, weights (E,)).
+# medium: (coefficient, density), either None: the Laplacians' (m,) scalars, (m, d, d)
+# tensors or one (d, d) tensor, and the masses' (m,) factors (C-contiguous float64, values
+# checked by the core).
+_Medium = tuple[_F64 | None, _F64 | None] | None
 def assemble(points: _F64, cells: _Cells, request: _Request, *, weights: _F64 | None = None,
-             options: _Options = None) -> object: ...
+             medium: _Medium = None, options: _Options = None) -> object: ...
 def check_options(options: _Options) -> None: ...
+# Checks a coefficient (or density) for m elements of `corners` corners in dim-space:
+# NonFiniteError / CoefficientError / ShapeError naming the element (vertices=True: the
+# values are per vertex, named `values`, the error names the vertex).
+def check_coefficient(values: _F64, m: int, corners: int, dim: int, *, density: bool = False,
+                      vertices: bool = False) -> None: ...
 
 # Cotangents of vjp: on L ("elements", (m, 6)) | ("matrix", _CsrInput) | ("quadratic",
 # (n, k)); on M ("diagonal", (n,)) | ("matrix", ...) | ("quadratic", ...).
@@ -72,11 +82,13 @@ def dual_centres(points: _F64, cells: _Cells, *, weights: _F64 | None = None,
 @final
 class Mesh:
     def __new__(cls, points: _F64, cells: _Cells, *, weights: _F64 | None = None,
-                options: _Options = None) -> Self: ...
+                medium: _Medium = None, options: _Options = None) -> Self: ...
     def pattern(self) -> tuple[npt.NDArray[np.uint32], _Idx]: ...
     def laplacian(self, kind: _Kind) -> _F64: ...
     def mass(self, kind: str) -> _F64: ...
-    def update(self, points: _F64) -> tuple[int, int, int]: ...
+    # points, the medium's coefficient and density: each None keeps the mesh's
+    def update(self, points: _F64 | None = None, *,
+               medium: _Medium = None) -> tuple[int, int, int]: ...
     def points(self) -> _F64: ...
     def cells(self) -> npt.NDArray[np.int64]: ...
 

@@ -74,6 +74,24 @@ threads : int, optional
     ``RAYON_NUM_THREADS`` if it is set (0 means all cores; a value outside 0 to
     ``MAX_THREADS`` is an :class:`tetlap.OptionError`, as for ``threads``), else all
     cores. The output is bitwise identical for any value.""",
+    "coefficient": """\
+coefficient : array-like of real numbers, optional
+    ``K`` of ``div(K grad u)`` (a conductivity, a diffusivity), per element: ``(m,)``
+    positive scalars, ``(m, 3, 3)`` symmetric positive definite tensors per tet (``(m, 2,
+    2)`` per triangle of a mesh in the plane), or one ``(3, 3)`` (``(2, 2)``) tensor for
+    every element; tensors need the mesh in its own space (not immersed). Primal:
+    ``L_ij = -sum_t Vol_t grad(phi_i) . K_t grad(phi_j)``. Dual: each tet's circumcentric
+    contribution in the metric ``K_t^-1`` (of the tet mapped by ``K_t^-1/2``) times
+    ``sqrt(det K_t)``, with ``weights`` as powers in that metric; a scalar ``c`` gives ``c``
+    times the plain contribution. ``None``: the plain operator, bitwise. A per-vertex field
+    goes through :func:`tetlap.coefficient.from_vertices` first; bad values raise
+    :class:`tetlap.CoefficientError` or :class:`tetlap.NonFiniteError` naming the element
+    (:doc:`/guide/media`).""",
+    "density": """\
+density : (m,) array-like of real numbers, optional
+    A positive factor per element for the masses (``rho c_p`` of a heat problem): every
+    mass kind's contributions of element ``t`` times ``density[t]``. ``None``: the plain
+    masses, bitwise.""",
     "dual_mesh": """\
 V : (n, d) array-like of real numbers
     Vertex positions, ``d >= 3`` (``d > 3``: an immersed mesh; centres lie in each tet's

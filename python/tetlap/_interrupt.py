@@ -33,6 +33,8 @@ from typing import Callable, TypeVar
 
 import numpy as np
 
+from . import _core
+
 R = TypeVar("R")
 
 #: Whether :func:`forked` runs its call in a child process (Linux: fork and memfd).
@@ -246,8 +248,6 @@ class SuperLU:
     (made by :func:`splu`)."""
 
     def __init__(self, factors, perm_r: np.ndarray, perm_c: np.ndarray) -> None:
-        from . import _core
-
         self.shape = (len(perm_r), len(perm_r))
         self.perm_r, self.perm_c = perm_r, perm_c
         self._core = _core.LU(len(perm_r), *factors, perm_r.astype(np.int64),

@@ -22,6 +22,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _options, _sparse, assembly, diagnostics
+from ._blas import one_blas_thread
+from .dual import dual_geometry
 from ._interrupt import eigvalsh, splu
 from .errors import OptionError, ShapeError
 from ._names import public_dir
@@ -240,9 +242,7 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     _options.tolerance(negative_tol, "negative_tol")
     nsd = _options.flag(nsd, "nsd")
     if kind == "cell":
-        from . import cells
-
-        return cells._report(L, V, T, M, weights=weights, negative_tol=negative_tol, nsd=nsd)
+        return _cell_report(L, V, T, M, weights=weights, negative_tol=negative_tol, nsd=nsd)
     if weights is not None:
         raise OptionError('weights= applies to kind="cell" only: the vertex weights of the '
                           "dual whose power centres L's cells were built with; the other "
@@ -401,8 +401,6 @@ def _dense(S: sp.csr_array, diagonal: np.ndarray):
     core's threads and other processes would make more spin against each other): those of
     ``-L`` (the smallest is reported) and, unless that one already says no, those of the
     Jacobi-scaled ``D^-1/2 (-L) D^-1/2`` on the rows with entries, which decide."""
-    from .solve._amg import one_blas_thread
-
     A = (-S).toarray()
     with one_blas_thread():
         lam = float(eigvalsh(A)[0])
@@ -514,3 +512,123 @@ def _element_certificate(S, V, T, scale: float, tol: np.ndarray, kind, assembled
         return True, None, (f"element certificate: L is the {name} Laplacian (to {gap:.1e}), a sum "
                             f"of per-tet matrices{construction}, each positive semidefinite{covered}")
     return None
+
+
+# The report of a cell-centred operator (check(Lc, V, T, kind="cell")), public as
+# tetlap.cells.CellReport: here, beside the checks it shares, so that tetlap.cells (the
+# operator) imports the analysis and not the other way round.
+@dataclasses.dataclass
+class CellReport(Report):
+    """:class:`tetlap.analysis.Report` of a cell-centred Laplacian (``check(Lc, V, T,
+    kind="cell")``). The fields keep their names, read on the dual graph: ``n_edges``
+    counts the interior faces (pairs of face-adjacent tets), ``n_edges_interior`` those
+    not between two tets that both have a boundary face; ``local`` means every stored
+    entry lies on a face-adjacent pair or the diagonal; linear precision is checked at
+    the centres, on the ``n_cells_off_boundary`` tets without a boundary face.
+    ``n_vertices`` and ``n_tets`` describe the mesh. ``n_folded_faces`` counts the
+    interior faces whose two tets lie on the same side of them (the tets overlap): no
+    two-point flux is linearly precise at their cells."""
+
+    n_cells_off_boundary: int = 0
+    n_folded_faces: int = 0
+
+    _LABELS = {
+        "local (edges + diagonal)": "local (face neighbours + diagonal)",
+        "linear precision (interior)": "linear precision (cells off the boundary)",
+        "  ... edges not both on the boundary": "  ... faces not between boundary cells",
+    }
+
+    def rows(self) -> list[tuple[str, bool | None, str]]:
+        return [(self._LABELS.get(name, name), ok, detail) for name, ok, detail in super().rows()]
+
+    def __str__(self) -> str:
+        lines = super().__str__().splitlines()
+        lines[0] = (f"{self.n_tets} cells (the tets of a mesh with {self.n_vertices} "
+                    f"vertices), {self.n_edges} interior faces")
+        return "\n".join(lines)
+
+
+def _sample(A: sp.csr_array, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """``A[rows, cols]`` as a float64 array (0 where nothing is stored); SciPy gives a sparse
+    array for empty indices."""
+    return np.asarray(A[rows, cols], dtype=np.float64).ravel() if len(rows) else np.zeros(0)
+
+
+def _cell_report(L, V: np.ndarray, T: np.ndarray, M, *, weights, negative_tol: float, nsd: bool):
+    """``check(L, V, T, M, kind="cell", weights=weights)`` on validated ``V`` (float64) and
+    ``T`` (int64)."""
+    m = T.shape[0]
+    L = _arrays.laplacian(L, m, finite=False)           # the stiffness sign refused
+    # the geometry in a frame centred on the box of the vertices in tets (an unused vertex
+    # changes no answer), as the vertex check measures: the centres of a mesh far from
+    # the origin are then as accurate as near it (their rounding is relative to the
+    # mesh's size, not to its offset), and linear precision does not depend on where the
+    # mesh lies
+    used = np.zeros(len(V), dtype=bool)
+    used[T.ravel()] = True
+    low, high = V[used].min(axis=0), V[used].max(axis=0)
+    diameter = float(np.linalg.norm(high - low))
+    g = dual_geometry(np.where(used[:, None], V - (low / 2 + high / 2), 0.0), T,
+                      weights=weights)
+    interior = (g.face_tets >= 0).all(axis=1)
+    s, t = g.face_tets[interior, 0], g.face_tets[interior, 1]
+    on_boundary = np.zeros(m, dtype=bool)
+    on_boundary[g.face_tets[g.boundary_faces, 0]] = True
+    finite = bool(np.isfinite(L.data).all())
+    decided = (lambda ok: ok) if finite else (lambda ok: None)
+    scale = float(np.abs(L.data).max()) if L.nnz and finite else 0.0
+    scale = scale if scale > 0 else 1.0
+    symmetry_error = float(abs(L - L.T).max()) if L.nnz and finite else 0.0
+    max_row_sum = float(np.abs(L.sum(axis=1)).max()) if finite else float("nan")
+    # locality: every stored entry on the diagonal or a face-adjacent pair
+    rows = np.repeat(np.arange(m), np.diff(L.indptr))
+    pairs = sp.csr_array((np.ones(2 * len(s)), (np.concatenate([s, t]), np.concatenate([t, s]))),
+                         shape=(m, m))
+    pairs.sum_duplicates()
+    local = bool(((rows == L.indices) | (_sample(pairs, rows, L.indices) > 0)).all())
+    w = _sample(L, s, t)
+    notes: list[str] = []
+    residual = None
+    off = ~on_boundary
+    if V.shape[1] != 3:
+        notes.append("linear precision: not applicable to an immersed (d > 3) mesh")
+    elif not off.any():
+        notes.append("linear precision: every cell has a boundary face")
+    elif finite:
+        residual = float(np.abs(L @ g.centres)[off].max()) / (scale * diameter)
+    if not finite:
+        notes.append("L has NaN or Inf entries: only finiteness and locality are decided")
+    folded = int(diagnostics.folded_faces(V, T).sum())   # the two tets on one side
+    if folded:
+        notes.append(f"{folded} interior faces are folded (their two tets on one side: the "
+                     "mesh overlaps itself): linear precision fails at their cells")
+    inner = ~(on_boundary[s] & on_boundary[t])
+    negative = w < -negative_tol * (np.abs(w).max() if len(w) else 0.0)
+    nsd_ok, min_eig, method = None, None, "skipped (nsd=False)"
+    if nsd and not finite:
+        method = "skipped (not finite)"
+    elif nsd:
+        nsd_ok, min_eig, method = _nsd(L, V, T, scale, "cell", False)
+    fraction = lambda k, total: k / total if total else 0.0
+    report = CellReport(
+        n_vertices=V.shape[0], n_tets=m, finite=finite,
+        symmetric=decided(symmetry_error <= TOL * scale), symmetry_error=symmetry_error,
+        max_row_sum=max_row_sum, row_sums_ok=decided(max_row_sum <= TOL * scale),
+        local=local, linear_precision_residual=residual,
+        linear_precision_ok=None if residual is None else decided(residual < TOL),
+        nsd=nsd_ok, nsd_min_eigenvalue_upper_bound=min_eig, nsd_method=method,
+        min_weight=float(w.min()) if len(w) else 0.0,
+        n_edges=len(w), n_negative=int(negative.sum()),
+        negative_fraction=fraction(int(negative.sum()), len(w)),
+        n_edges_interior=int(inner.sum()), n_negative_interior=int((negative & inner).sum()),
+        negative_fraction_interior=fraction(int((negative & inner).sum()), int(inner.sum())),
+        negative_tol=negative_tol, notes=notes, n_cells_off_boundary=int(off.sum()),
+        n_folded_faces=folded)
+    if M is not None:
+        M = _arrays.matrix(M, m, "M")
+        lumped = np.asarray(M.sum(axis=1)).ravel()
+        report.mass_min = float(lumped.min())
+        report.mass_nonpositive = int((lumped <= 0).sum())
+        report.mass_total = float(M.sum())
+        report.mesh_volume = float(g.volume.sum())
+    return report

@@ -14,6 +14,7 @@ import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
 from ._options import weights_used
+from . import coefficient as _coefficient
 from ._docs import shared_docs
 from ._options import renamed
 from ._names import public_dir
@@ -36,7 +37,8 @@ def _options(boundary, degenerate, threads) -> dict:
     return {"boundary": boundary, "degenerate": degenerate, "threads": threads}
 
 
-def _assemble(what: tuple, V, T, weights, boundary, degenerate, threads):
+def _assemble(what: tuple, V, T, weights, boundary, degenerate, threads, coefficient=None,
+              density=None):
     """``(the core's result for what, n)``: the one path of every function here from the
     user's arguments to :func:`tetlap._core.assemble`."""
     V, T = _arrays.mesh(V, T)
@@ -44,21 +46,25 @@ def _assemble(what: tuple, V, T, weights, boundary, degenerate, threads):
     T = _arrays.elements(T)
     w = _arrays.vertex_weights(weights, V.shape[0])
     weights_used(w is not None and T.shape[1] == 4, what[1:])  # triangles: the core refuses
+    K = _coefficient._argument(coefficient, (V.shape, T.shape))
+    rho = _coefficient._argument(density, (V.shape, T.shape), density=True)
     options = _options(boundary, degenerate, threads)
-    return _core.assemble(V, T, what, weights=w, options=options), V.shape[0]
+    return (_core.assemble(V, T, what, weights=w, medium=(K, rho), options=options),
+            V.shape[0])
 
 
 @renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
 def laplacian(V, T=None, kind="primal", *, boundary_centres="circumcentric", weights=None,
-              degenerate="raise", threads=None) -> sp.csr_array:
+              coefficient=None, degenerate="raise", threads=None) -> sp.csr_array:
     """The (n, n) Laplacian of a tetrahedral or triangle mesh.
 
     Parameters
     ----------
     {mesh}
     {kind}
+    {coefficient}
     {options}
 
     Returns
@@ -79,8 +85,12 @@ def laplacian(V, T=None, kind="primal", *, boundary_centres="circumcentric", wei
     >>> L = tetlap.laplacian(V, [[0, 1, 2, 3]], kind="dual")
     >>> L[[0], :].toarray().round(4)
     array([[-0.75,  0.25,  0.25,  0.25]])
+    >>> K = [[4.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]  # conducts 4x along x
+    >>> tetlap.laplacian(V, [[0, 1, 2, 3]], coefficient=K)[[0], :].toarray().round(4)
+    array([[-1.    ,  0.6667,  0.1667,  0.1667]])
     """
-    arrays, n = _assemble(("laplacian", kind), V, T, weights, boundary_centres, degenerate, threads)
+    arrays, n = _assemble(("laplacian", kind), V, T, weights, boundary_centres, degenerate, threads,
+                          coefficient)
     return _sparse.csr(arrays, n)
 
 
@@ -88,13 +98,14 @@ def laplacian(V, T=None, kind="primal", *, boundary_centres="circumcentric", wei
 @_arrays.takes_mesh_object
 @shared_docs
 def mass(V, T=None, kind="barycentric", *, boundary_centres="circumcentric", weights=None,
-         degenerate="raise", threads=None) -> sp.csr_array:
+         density=None, degenerate="raise", threads=None) -> sp.csr_array:
     """The (n, n) mass matrix of a tetrahedral or triangle mesh.
 
     Parameters
     ----------
     {mesh}
     {mass_kind}
+    {density}
     {options}
 
     Returns
@@ -102,7 +113,7 @@ def mass(V, T=None, kind="barycentric", *, boundary_centres="circumcentric", wei
     M : (n, n) scipy.sparse.csr_array, float64
         Diagonal for the lumped kinds (unreferenced vertices get 0), on the pattern of
         :func:`laplacian` for ``"fem"``. The entries sum to the mesh volume (area) for
-        every kind.
+        every kind (to the sum of ``density`` times the element measures with a density).
 
     {raises}
 
@@ -113,16 +124,16 @@ def mass(V, T=None, kind="barycentric", *, boundary_centres="circumcentric", wei
     >>> tetlap.mass(V, [[0, 1, 2, 3]], kind="circumcentric").diagonal() * 72
     array([9., 1., 1., 1.])
     """
-    result, n = _assemble(("mass", kind), V, T, weights, boundary_centres, degenerate, threads)
+    result, n = _assemble(("mass", kind), V, T, weights, boundary_centres, degenerate, threads,
+                          density=density)
     return _sparse.mass(result, n)
 
 
 @renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
-def operators(V, T=None, laplacian="primal", mass="barycentric", *,
-              boundary_centres="circumcentric",
-              weights=None, degenerate="raise",
+def operators(V, T=None, laplacian="primal", mass="barycentric", *, boundary_centres="circumcentric",
+              weights=None, coefficient=None, density=None, degenerate="raise",
               threads=None) -> tuple[sp.csr_array, sp.csr_array]:
     """The Laplacian and a mass matrix from one pass over the elements.
 
@@ -133,6 +144,8 @@ def operators(V, T=None, laplacian="primal", mass="barycentric", *,
         The Laplacian's kind, as ``kind`` of :func:`laplacian`.
     mass : {{"barycentric", "circumcentric", "mixed", "fem"}}, default "barycentric"
         The mass matrix's kind, as ``kind`` of :func:`mass`.
+    {coefficient}
+    {density}
     {options}
 
     Returns
@@ -152,8 +165,8 @@ def operators(V, T=None, laplacian="primal", mass="barycentric", *,
     >>> round(float(M.sum()), 12)
     1.0
     """
-    (L, M), n = _assemble(("operators", laplacian, mass), V, T, weights, boundary_centres,
-                          degenerate, threads)
+    (L, M), n = _assemble(("operators", laplacian, mass), V, T, weights, boundary_centres, degenerate,
+                          threads, coefficient, density)
     return _sparse.csr(L, n), _sparse.mass(M, n)
 
 
@@ -171,13 +184,14 @@ class Triplets(NamedTuple):
 @_arrays.takes_mesh_object
 @shared_docs
 def triplets(V, T=None, kind="primal", *, boundary_centres="circumcentric", weights=None,
-             degenerate="raise", threads=None) -> Triplets:
+             coefficient=None, degenerate="raise", threads=None) -> Triplets:
     """The Laplacian as unsummed triplets: each element's local Laplacian.
 
     Parameters
     ----------
     {mesh}
     {kind}
+    {coefficient}
     {options}
 
     Returns
@@ -199,8 +213,8 @@ def triplets(V, T=None, kind="primal", *, boundary_centres="circumcentric", weig
     >>> bool(abs(L - tetlap.laplacian(V, T)).max() < 1e-12)
     True
     """
-    (rows, cols, vals), n = _assemble(("triplets", kind), V, T, weights, boundary_centres,
-                                      degenerate, threads)
+    (rows, cols, vals), n = _assemble(("triplets", kind), V, T, weights, boundary_centres, degenerate,
+                                      threads, coefficient)
     return Triplets(rows, cols, vals, (n, n))
 
 
@@ -208,13 +222,15 @@ def triplets(V, T=None, kind="primal", *, boundary_centres="circumcentric", weig
 @_arrays.takes_mesh_object
 @shared_docs
 def edge_weights(V, T=None, kind="primal", *, boundary_centres="circumcentric", weights=None,
-                 degenerate="raise", threads=None) -> tuple[np.ndarray, np.ndarray]:
+                 coefficient=None, degenerate="raise",
+                 threads=None) -> tuple[np.ndarray, np.ndarray]:
     """The unique edges of the mesh and their summed weights.
 
     Parameters
     ----------
     {mesh}
     {kind}
+    {coefficient}
     {options}
 
     Returns
@@ -234,15 +250,15 @@ def edge_weights(V, T=None, kind="primal", *, boundary_centres="circumcentric", 
     >>> edges[0].tolist(), float(w[0])
     ([0, 1], 0.25)
     """
-    return _assemble(("edge_weights", kind), V, T, weights, boundary_centres, degenerate,
-                     threads)[0]
+    return _assemble(("edge_weights", kind), V, T, weights, boundary_centres, degenerate, threads,
+                     coefficient)[0]
 
 
 @renamed(boundary="boundary_centres")
 @_arrays.takes_mesh_object
 @shared_docs
-def element_contributions(V, T=None, kind="primal", *, boundary_centres="circumcentric",
-                          weights=None, degenerate="raise", threads=None) -> np.ndarray:
+def element_contributions(V, T=None, kind="primal", *, boundary_centres="circumcentric", weights=None,
+                          coefficient=None, degenerate="raise", threads=None) -> np.ndarray:
     """Per-element edge weights (each element's contribution to ``L``), for tets and
     triangles. ``tet_contributions`` is this function under its name until 0.1, kept for
     one release.
@@ -251,6 +267,7 @@ def element_contributions(V, T=None, kind="primal", *, boundary_centres="circumc
     ----------
     {mesh}
     {kind}
+    {coefficient}
     {options}
 
     Returns
@@ -269,8 +286,8 @@ def element_contributions(V, T=None, kind="primal", *, boundary_centres="circumc
     >>> (tetlap.element_contributions(V, [[0, 1, 2, 3]], kind="primal") * 6).round(12) + 0.0  # no -0.
     array([[1., 1., 1., 0., 0., 0.]])
     """
-    return _assemble(("contributions", kind), V, T, weights, boundary_centres, degenerate,
-                     threads)[0]
+    return _assemble(("contributions", kind), V, T, weights, boundary_centres, degenerate, threads,
+                     coefficient)[0]
 
 
 def _operators_skipping(V, T, laplacian, mass):

@@ -184,6 +184,47 @@ def _cases(V, T, threads) -> dict[str, Callable[[], object]]:
     return cases
 
 
+def random_tensors(m: int, seed: int = 0, decades: float = 1.0) -> np.ndarray:
+    """``m`` random SPD tensors ``R diag(l) R^T`` (eigenvalues from 1 to ``10^decades``,
+    random rotations), as the benchmarks' per-tet conductivity."""
+    rng = np.random.default_rng(seed)
+    Q, _ = np.linalg.qr(rng.normal(size=(m, 3, 3)))
+    lam = 10.0 ** (decades * rng.random((m, 3)))
+    K = np.einsum("mij,mj,mkj->mik", Q, lam, Q)
+    return (K + K.swapaxes(-1, -2)) / 2
+
+
+def _coefficient_cases(V, T, opts) -> dict[str, Callable[[], object]]:
+    """The operators with a per-tet scalar and tensor coefficient, and a cached mesh given
+    a new coefficient (on 20 tets, or on every tet)."""
+    m = len(T)
+    rng = np.random.default_rng(0)
+    c = rng.uniform(0.5, 2.0, m)
+    K = random_tensors(m)
+    cases: dict[str, Callable[[], object]] = {}
+    for kind in ("primal", "dual"):
+        cases[f"tetlap {kind}, scalar coefficient"] = (
+            lambda kind=kind: assembly.laplacian(V, T, kind, coefficient=c, **opts))
+        cases[f"tetlap {kind}, tensor coefficient"] = (
+            lambda kind=kind: assembly.laplacian(V, T, kind, coefficient=K, **opts))
+    few = c.copy()
+    few[rng.choice(m, 20, replace=False)] *= 2.0
+    toggles = {"few": (Mesh(V, T, coefficient=c, **opts), [few, c]),
+               "all": (Mesh(V, T, coefficient=c, **opts), [1.5 * c, c])}
+    for cached, _ in toggles.values():
+        cached.laplacian("dual")
+    state = {"few": 0, "all": 0}
+
+    def toggle(which):
+        cached, coefficients = toggles[which]
+        state[which] ^= 1
+        return cached, cached.update(coefficient=coefficients[state[which]])
+
+    cases["Mesh: new coefficient on 20 tets"] = lambda: toggle("few")
+    cases["Mesh: new coefficient on every tet + L dual"] = lambda: toggle("all")[0].laplacian("dual")
+    return cases
+
+
 def _selected(names, only) -> list[str]:
     if not only:
         return [n for n in names if n in DEFAULT_CASES]
@@ -197,6 +238,8 @@ def time_mesh(label: str, V, T, threads=None, repeat: int = 5, only=None,
     _options.count(repeat, "repeat")
     _options.threads(threads)
     cases = _cases(V, T, threads)
+    if only and any("coefficient" in word for word in only):
+        cases |= _coefficient_cases(V, T, {"threads": threads, "degenerate": "skip"})
     names = _selected(list(cases), only)
     times: dict[str, list[float]] = {name: [] for name in names}
     rounds = bar(range(repeat), desc=f"{label}") if progress else range(repeat)

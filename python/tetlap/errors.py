@@ -31,6 +31,7 @@ __all__ = [
     "MeshFileError",
     "CompatibilityError",
     "SolveError",
+    "CoefficientError",
     "InternalError",
 ]
 __dir__ = public_dir(globals())
@@ -90,6 +91,13 @@ class CompatibilityError(TetlapError):
 class SolveError(TetlapError):
     """A linear system or eigenproblem of :mod:`tetlap.solve` has no accurate solution
     (singular, or too ill-conditioned): the message gives the relative residual."""
+
+
+class CoefficientError(TetlapError):
+    """A coefficient of the Laplacian (``coefficient=``) or a density of the masses
+    (``density=``) that is not positive: a scalar <= 0, or a tensor that is not symmetric
+    (beyond rounding) or not positive definite. The message gives the value (the
+    asymmetry, the smallest eigenvalue); ``element`` is the element it belongs to."""
 
 
 class InternalError(TetlapError):

@@ -35,6 +35,7 @@ from scipy.sparse import csgraph
 
 from . import _arrays, _core, _options, analysis, assembly
 from ._float_range import frame_exponent
+from .regular import regular_weights
 from .solve import factorize
 from .errors import DtypeError, NonFiniteError, OptionError, ShapeError, SolveError, TetlapError
 from ._names import public_dir
@@ -295,8 +296,6 @@ def harmonic(V, T=None, fixed=None, values=None, *, k: int = 1, laplacian="auto"
         return Harmonic(x, "dual", None, True, _out_of_range(x, vals, free), reason)
     why = [f"dual: {reason}"]
     if T.shape[1] == 4 and V.shape[1] == 3:
-        from .regular import regular_weights
-
         try:
             r = regular_weights(V, T, threads=threads)
         except TetlapError as refused:   # the mesh's weights beyond float64, ...

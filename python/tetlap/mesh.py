@@ -9,6 +9,7 @@ import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
 from ._options import renamed, weights_used
+from . import coefficient as _coefficient
 from .assembly import _options
 from .errors import ShapeError
 from ._names import public_dir
@@ -18,7 +19,9 @@ __dir__ = public_dir(globals())
 
 
 class UpdateInfo(NamedTuple):
-    """What :meth:`Mesh.update` recomputed."""
+    """What :meth:`Mesh.update` recomputed: the vertices that moved, the elements
+    recomputed (around them, and those whose coefficient or density changed) and the rows
+    re-summed."""
 
     moved_vertices: int
     recomputed_tets: int
@@ -49,6 +52,9 @@ class Mesh:
         Laplacian, a mass other than the circumcentric, alone) is refused with
         :class:`tetlap.OptionError`, as :func:`tetlap.laplacian` refuses ``weights=`` with
         the primal.
+    coefficient, density
+        As for :func:`tetlap.operators`: the coefficient of every Laplacian and the density
+        of every mass of this mesh; :meth:`update` changes them.
 
     Notes
     -----
@@ -69,16 +75,24 @@ class Mesh:
     24
     >>> (mesh.laplacian("dual") != tetlap.laplacian(V2, T, "dual")).nnz
     0
+    >>> c = np.ones(len(T)); c[:10] = 5.0  # ten tets conduct five times better
+    >>> mesh.update(coefficient=c).recomputed_tets
+    10
+    >>> (mesh.laplacian("dual") != tetlap.laplacian(V2, T, "dual", coefficient=c)).nnz
+    0
     """
 
     @renamed(boundary="boundary_centres")
     @_arrays.takes_mesh_object
     def __init__(self, V, T=None, *, boundary_centres="circumcentric", weights=None,
-                 degenerate="raise", threads=None) -> None:
+                 coefficient=None, density=None, degenerate="raise", threads=None) -> None:
         V, T = _arrays.mesh(V, T)
         V, T = _arrays.points(V), _arrays.elements(T)
         w = _arrays.vertex_weights(weights, V.shape[0])
-        self._core = _core.Mesh(V, T, weights=w,
+        self._shapes = (V.shape, T.shape)
+        K = _coefficient._argument(coefficient, self._shapes)
+        rho = _coefficient._argument(density, self._shapes, density=True)
+        self._core = _core.Mesh(V, T, weights=w, medium=(K, rho),
                                 options=_options(boundary_centres, degenerate, threads))
         self._weighted = w is not None
         self._n, self._dim = V.shape
@@ -135,14 +149,22 @@ class Mesh:
         weights_used(self._weighted, (laplacian, mass), "weights (of this Mesh)")
         return self._laplacian(laplacian), self._mass(mass)
 
-    def update(self, V) -> UpdateInfo:
-        """Move the vertices to ``V`` ((n, d), same shape) and refresh the cached operators.
+    def update(self, V=None, *, coefficient=None, density=None) -> UpdateInfo:
+        """Move the vertices to ``V`` ((n, d), same shape) and/or set a new ``coefficient``
+        (any form :func:`tetlap.laplacian` takes) and ``density``, at once, and refresh the
+        cached operators. ``None`` keeps what the Mesh has (a coefficient of ones gives
+        the plain Laplacians, bitwise).
 
-        Only elements around vertices whose coordinates changed are recomputed. On error
-        (an element became degenerate, non-finite coordinates, wrong shape, Ctrl-C) the
-        Mesh is unchanged.
+        Only the elements around vertices whose coordinates changed, and those whose
+        coefficient or density changed, are recomputed, and only the rows of their corners
+        re-summed: no topology, no pattern. The result is bitwise equal to a one-shot
+        assembly of the new mesh. On error (an element became degenerate, non-finite
+        coordinates, a bad coefficient, wrong shape, Ctrl-C) the Mesh is unchanged.
         """
-        V = _arrays.points(V)
-        if V.shape[0] != self._n:
-            raise ShapeError(f"V must have {self._n} rows, got {V.shape[0]}")
-        return UpdateInfo(*self._core.update(V))
+        if V is not None:
+            V = _arrays.points(V)
+            if V.shape[0] != self._n:
+                raise ShapeError(f"V must have {self._n} rows, got {V.shape[0]}")
+        K = _coefficient._argument(coefficient, self._shapes)
+        rho = _coefficient._argument(density, self._shapes, density=True)
+        return UpdateInfo(*self._core.update(V, medium=(K, rho)))

@@ -74,6 +74,32 @@ pub enum Error {
     Singular { row: usize },
     /// Not enough memory for `what`.
     OutOfMemory { what: &'static str },
+    /// A value of a coefficient of the Laplacian or of a density of the masses is refused
+    /// ([`crate::MeshView::with_coefficient`], [`crate::MeshView::with_density`]):
+    /// `element` is the element it belongs to (`None`: the one tensor given for every
+    /// element), `kind` names the elements ("tet", "triangle"), `density` whether it is the
+    /// density.
+    Coefficient { element: Option<usize>, kind: &'static str, density: bool, problem: CoefficientProblem },
+    /// A computation that does not take a coefficient or a density was given a mesh with
+    /// one (`what` names the computation).
+    CoefficientUnsupported { what: &'static str },
+}
+
+/// Why a value of a coefficient or a density is refused (see [`Error::Coefficient`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(missing_docs)] // the fields are named for what they hold
+pub enum CoefficientProblem {
+    /// NaN or an infinity (`entry`: its row and column in a tensor; `None` for a scalar).
+    NonFinite { entry: Option<(usize, usize)>, value: f64 },
+    /// A scalar that is zero or negative.
+    NotPositive { value: f64 },
+    /// A tensor whose entries `(row, col)` and `(col, row)` differ by more than
+    /// [`SYMMETRY_RTOL`](crate::element::metric::SYMMETRY_RTOL) of its largest entry
+    /// (`asymmetry`: that difference over the largest entry).
+    NotSymmetric { row: usize, col: usize, asymmetry: f64 },
+    /// A tensor that is not positive definite in `f64` (its Cholesky factorization meets
+    /// a pivot `<= 0`), with its smallest and largest eigenvalues.
+    NotPositiveDefinite { smallest: f64, largest: f64 },
 }
 
 /// Options that only some kinds of element support (see [`Error::Unsupported`]).
@@ -184,6 +210,32 @@ impl fmt::Display for Error {
                 write!(f, "the LDL^T factorization met a zero pivot at row {row}: the matrix is singular there")
             }
             Error::OutOfMemory { what } => write!(f, "not enough memory for {what}"),
+            Error::Coefficient { element, kind, density, problem } => {
+                let name = if *density { "density" } else { "coefficient" };
+                match element {
+                    Some(t) => write!(f, "the {name} of {kind} {t} ")?,
+                    None => write!(f, "the {name} (one tensor for every {kind}) ")?,
+                }
+                match problem {
+                    CoefficientProblem::NonFinite { entry: None, value } => write!(f, "is not finite: {value}"),
+                    CoefficientProblem::NonFinite { entry: Some((row, col)), value } => {
+                        write!(f, "is not finite: {value} at ({row}, {col})")
+                    }
+                    CoefficientProblem::NotPositive { value } => write!(f, "is not positive: {value}"),
+                    CoefficientProblem::NotSymmetric { row, col, asymmetry } => write!(
+                        f,
+                        "is not symmetric: entries ({row}, {col}) and ({col}, {row}) differ by {asymmetry:.3e} \
+                         of its largest entry"
+                    ),
+                    CoefficientProblem::NotPositiveDefinite { smallest, largest } => write!(
+                        f,
+                        "is not positive definite: its smallest eigenvalue is {smallest:.6e} (largest {largest:.6e})"
+                    ),
+                }
+            }
+            Error::CoefficientUnsupported { what } => {
+                write!(f, "{what} does not take a coefficient or a density")
+            }
         }
     }
 }

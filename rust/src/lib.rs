@@ -77,13 +77,13 @@ pub use assembly::vjp::{vjp, Columns, Cotangents, LaplacianCotangent, MassCotang
 pub use assembly::gradients;
 pub use assembly::{dual_centres, DualCentres, TetDual};
 pub use assembly::{
-    contributions, edge_weights, element_laplacians, laplacian, mass, operators, operators_skipping, triplets, CachedMesh, Skipped,
-    Skips, Topology, Update,
+    contributions, edge_weights, element_laplacians, laplacian, mass, operators, operators_skipping, triplets, CachedMesh, Change,
+    Skipped, Skips, Topology, Update,
 };
 pub use element::tet::{inside_circumsphere, tet_quality, TetQuality, DELAUNAY_RTOL};
 pub use element::{local_tet, local_tri, LocalTet, LocalTri, Simplex, Tet, Tri, Values};
-pub use error::{Error, Feature, Result};
-pub use mesh::{cells_from_i64, MeshView, TetView, TriView, MAX_VERTICES};
+pub use error::{CoefficientProblem, Error, Feature, Result};
+pub use mesh::{cells_from_i64, check_coefficient, check_density, Coefficient, MeshView, TetView, TriView, MAX_VERTICES};
 pub use options::{Boundary, Cancel, Degenerate, LaplacianKind, MassKind, Options};
 pub use sparse::{Coo, Csr, CsrRef, Mass};
 pub use threads::{default_threads, max_threads, THREADS_VARIABLE};

@@ -150,3 +150,48 @@ fn the_pattern_and_the_values_views() {
     assert_eq!(bits(cached.mass_values(MassKind::Circumcentric).unwrap()), bits(&m));
     assert_eq!((cached.n_vertices(), cached.dim()), (mesh.n_vertices(), 3));
 }
+
+#[test]
+fn new_coefficients_and_densities_are_a_one_shot_assembly() {
+    let (points, cells) = grid(5, 0.2, 21);
+    let m = cells.len();
+    let opts = Options::default();
+    let mut cached = CachedMesh::<Tet>::new(points.clone(), 3, cells.clone(), opts.clone()).unwrap();
+    for kind in [LaplacianKind::Dual, LaplacianKind::Affine(0.3)] {
+        cached.laplacian(kind).unwrap();
+    }
+    cached.mass(MassKind::Circumcentric).unwrap();
+    let mut scalars = vec![1.0; m];
+    scalars[3] = 2.0;
+    let tensors: Vec<f64> = (0..m).flat_map(|t| [1.0 + t as f64 / m as f64, 0.2, 0.0, 0.2, 1.0, 0.0, 0.0, 0.0, 5.0]).collect();
+    let mut tensors2 = tensors.clone();
+    tensors2[9 * 7] *= 3.0;
+    let constant = [2.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    let density: Vec<f64> = (0..m).map(|t| 1.0 + (t % 3) as f64).collect();
+    let steps: [(Option<Coefficient>, Option<&[f64]>, usize); 6] = [
+        (Some(Coefficient::Scalar(&scalars)), None, 1), // from none: only the tet whose scalar is not 1
+        (Some(Coefficient::Tensor(&tensors)), None, m),
+        (Some(Coefficient::Tensor(&tensors2)), None, 1),
+        (Some(Coefficient::Constant(&constant)), Some(&density), m),
+        (Some(Coefficient::Constant(&constant)), Some(&density), 0),
+        (None, None, m),
+    ];
+    for (c, d, recomputed) in steps {
+        let update = cached.change(Change { coefficient: Some(c), density: Some(d), ..Change::default() }).unwrap();
+        assert!(update.recomputed_elements == recomputed || recomputed > m / 8, "{update:?}");
+        let mut fresh = TetView::new(&points, 3, &cells).unwrap();
+        if let Some(c) = c {
+            fresh = fresh.with_coefficient(c).unwrap();
+        }
+        if let Some(d) = d {
+            fresh = fresh.with_density(d).unwrap();
+        }
+        assert_equal_to_one_shot(&mut cached, &fresh, &opts);
+    }
+    // a bad coefficient changes nothing
+    let before = cached.laplacian(LaplacianKind::Dual).unwrap();
+    let bad = vec![-1.0; m];
+    assert!(cached.set_coefficient(Some(Coefficient::Scalar(&bad))).is_err());
+    assert!(cached.coefficient().is_none());
+    assert_eq!(cached.laplacian(LaplacianKind::Dual).unwrap(), before);
+}

@@ -148,3 +148,40 @@ fn triangles() {
         }
     }
 }
+
+#[test]
+fn coefficients_and_densities() {
+    // per-tet scalars, per-tet tensors (batched and one by one), a constant tensor, densities
+    let (points, cells) = grid(8, 0.2, 6);
+    let (points, cells, _) = shuffled(&points, 3, &cells, 7);
+    let m = cells.len();
+    let scalars: Vec<f64> = (0..m).map(|t| 0.5 + (t % 13) as f64 / 4.0).collect();
+    let tensors: Vec<f64> = (0..m)
+        .flat_map(|t| {
+            let (a, b) = (1.0 + (t % 5) as f64, 0.1 * (t % 3) as f64);
+            [a, b, 0.0, b, 2.0, 0.3, 0.0, 0.3, 10.0 * a]
+        })
+        .collect();
+    let constant = [3.0, 0.5, 0.0, 0.5, 1.0, 0.2, 0.0, 0.2, 2.0];
+    let coefficients = [Coefficient::Scalar(&scalars), Coefficient::Tensor(&tensors), Coefficient::Constant(&constant)];
+    let run = |opts: &Options| -> Vec<u64> {
+        let mut out = vec![];
+        for c in coefficients {
+            let mesh = TetView::new(&points, 3, &cells).unwrap().with_coefficient(c).unwrap().with_density(&scalars).unwrap();
+            for kind in KINDS {
+                out.extend(csr(&laplacian(&mesh, kind, opts).unwrap()));
+            }
+            let (l, m) = operators(&mesh, LaplacianKind::Affine(0.4), MassKind::Circumcentric, opts).unwrap();
+            out.extend([csr(&l), mass_bits(&m)].concat());
+            let mut cached = CachedMesh::<Tet>::new(points.clone(), 3, cells.clone(), opts.clone()).unwrap();
+            cached.laplacian(LaplacianKind::Dual).unwrap();
+            cached.set_coefficient(Some(c)).unwrap();
+            out.extend(csr(&cached.laplacian(LaplacianKind::Dual).unwrap()));
+        }
+        out
+    };
+    let reference = run(&threads(Some(1)));
+    for t in &THREADS[1..] {
+        assert!(run(&threads(*t)) == reference, "coefficients differ for {t:?}");
+    }
+}

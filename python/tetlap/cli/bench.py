@@ -30,8 +30,9 @@ def arguments(p) -> None:
                         "--quick: 3)")
     p.add_argument("--operators", nargs="+", metavar="WORD",
                    help="only cases whose name contains a word, e.g. primal dual Mesh check "
-                        "info numpy voronoi scikit (the floor always runs, and igl.cotmatrix "
-                        "when libigl is installed: the last column is relative to it)")
+                        "info numpy voronoi scikit coefficient (the floor always runs, and "
+                        "igl.cotmatrix when libigl is installed: the last column is relative "
+                        "to it)")
     p.add_argument("--solve", action="store_true",
                    help="time tetlap.solve instead (Dirichlet, eigs, factorize on 189k-1M tets, "
                         "each case in its own process, against one assembly, SuperLU, pyamg "

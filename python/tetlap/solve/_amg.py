@@ -15,12 +15,12 @@ corpus and on 1M tets.
 
 from __future__ import annotations
 
-import contextlib
 import warnings
 
 import numpy as np
 import scipy.sparse as sp
 
+from .._blas import one_blas_thread
 from .._progress import _interactive
 from . import _checks
 
@@ -28,17 +28,6 @@ from . import _checks
 CG_RTOL = 1e-10
 #: The most CG iterations before giving up (the residual check decides what then).
 CG_MAXITER = 400
-
-
-@contextlib.contextmanager
-def one_blas_thread():
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        yield
-        return
-    with threadpool_limits(1):
-        yield
 
 
 def hierarchy(A: sp.csr_array):

@@ -12,6 +12,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import _arrays, _interrupt, _options
+from .._blas import one_blas_thread
 from .._progress import Stages
 from ..errors import NonFiniteError, OptionError, SolveError
 from . import _amg, _checks, _lanczos
@@ -194,7 +195,7 @@ def eigs(L, M, k: int | None = None, fixed=None, *, sigma: float | None = None,
             interval = tuple(float(np.ldexp(x, eB - eA)) for x in interval)
     info = SolveInfo()
     problem = _Problem(A, B, info, Stages("eigs", progress), progress, eA - eB)
-    with _amg.one_blas_thread():
+    with one_blas_thread():
         if interval is not None:
             lam, vec = problem.interval(*interval, solver)
         elif sigma is not None:

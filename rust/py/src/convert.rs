@@ -4,11 +4,11 @@
 
 use crate::errors::{shape_error, to_py};
 use crate::options::Request;
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use pyo3::Borrowed;
-use tetlap::{Coo, Csr, CsrRef, Mass, MeshView, Options, Simplex, Tet, Tri};
+use tetlap::{Coefficient, Coo, Csr, CsrRef, Mass, MeshView, Options, Simplex, Tet, Tri};
 
 /// The elements of a mesh: tets or triangles.
 pub enum Cells {
@@ -83,12 +83,67 @@ pub fn contiguous<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
     a.as_slice().map_err(|_| shape_error(py, "internal: arrays must be C-contiguous".into()))
 }
 
-/// Owned copies of the points, the validated elements and the optional vertex weights.
+/// A coefficient as the Python layer hands it over: a C-contiguous float64 array, `(m,)`
+/// scalars, `(m, d, d)` tensors or one `(d, d)` tensor (its values checked by the core).
+#[derive(Clone)]
+pub enum CoefficientArg {
+    Scalar(Vec<f64>),
+    Tensor(Vec<f64>),
+    Constant(Vec<f64>),
+}
+
+impl CoefficientArg {
+    /// A copy of `array`, its form read from its number of dimensions.
+    pub fn new(py: Python<'_>, array: &PyReadonlyArrayDyn<'_, f64>) -> PyResult<Self> {
+        let values = contiguous(py, array)?.to_vec();
+        match array.ndim() {
+            1 => Ok(CoefficientArg::Scalar(values)),
+            3 => Ok(CoefficientArg::Tensor(values)),
+            2 => Ok(CoefficientArg::Constant(values)),
+            k => Err(shape_error(py, format!("internal: a coefficient has 1, 2 or 3 dimensions, got {k}"))),
+        }
+    }
+
+    /// The core's view.
+    pub fn view(&self) -> Coefficient<'_> {
+        match self {
+            CoefficientArg::Scalar(v) => Coefficient::Scalar(v),
+            CoefficientArg::Tensor(v) => Coefficient::Tensor(v),
+            CoefficientArg::Constant(v) => Coefficient::Constant(v),
+        }
+    }
+}
+
+/// The medium of a call, `(coefficient, density)`, either `None`: the Laplacians'
+/// coefficient (see [`CoefficientArg`]) and the masses' `(m,)` density, copied (checked by
+/// the core with the mesh).
+#[derive(Clone, Default)]
+pub struct MediumArg {
+    pub coefficient: Option<CoefficientArg>,
+    pub density: Option<Vec<f64>>,
+}
+
+impl<'a, 'py> FromPyObject<'a, 'py> for MediumArg {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        let py = obj.py();
+        let (coefficient, density): (Option<PyReadonlyArrayDyn<'_, f64>>, Option<PyReadonlyArray1<'_, f64>>) =
+            obj.extract().map_err(|_| shape_error(py, "internal: a medium is (coefficient, density)".into()))?;
+        let coefficient = coefficient.as_ref().map(|c| CoefficientArg::new(py, c)).transpose()?;
+        let density = density.as_ref().map(|d| contiguous(py, d).map(<[f64]>::to_vec)).transpose()?;
+        Ok(MediumArg { coefficient, density })
+    }
+}
+
+/// Owned copies of the points, the validated elements, the optional vertex weights, and
+/// the optional medium (set by [`Input::with`]).
 pub struct Input {
     pub points: Vec<f64>,
     pub dim: usize,
     pub cells: Cells,
     pub weights: Option<Vec<f64>>,
+    pub medium: MediumArg,
 }
 
 impl Input {
@@ -105,16 +160,30 @@ impl Input {
         let cells = Cells::new(py, cells, n, opts)?;
         let points = contiguous(py, points)?.to_vec();
         let weights = weights.map(|w| contiguous(py, w).map(<[f64]>::to_vec)).transpose()?;
-        Ok(Input { points, dim, cells, weights })
+        Ok(Input { points, dim, cells, weights, medium: MediumArg::default() })
     }
 
-    /// The validated mesh of `cells` (this input's), with its vertex weights.
+    /// The same input with a medium (a coefficient and a density; checked by the core
+    /// with the mesh).
+    pub fn with(mut self, medium: Option<MediumArg>) -> Self {
+        self.medium = medium.unwrap_or_default();
+        self
+    }
+
+    /// The validated mesh of `cells` (this input's), with its vertex weights, coefficient
+    /// and density.
     pub fn mesh<'a, S: Simplex>(&'a self, cells: &'a [S::Cell]) -> tetlap::Result<MeshView<'a, S>> {
-        let mesh = MeshView::new(&self.points, self.dim, cells)?;
-        match &self.weights {
-            Some(w) => mesh.with_vertex_weights(w),
-            None => Ok(mesh),
+        let mut mesh = MeshView::new(&self.points, self.dim, cells)?;
+        if let Some(w) = &self.weights {
+            mesh = mesh.with_vertex_weights(w)?;
         }
+        if let Some(c) = &self.medium.coefficient {
+            mesh = mesh.with_coefficient(c.view())?;
+        }
+        if let Some(d) = &self.medium.density {
+            mesh = mesh.with_density(d)?;
+        }
+        Ok(mesh)
     }
 
     /// The validated tet mesh, or the error for a triangle mesh (what only tets support).

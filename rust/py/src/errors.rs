@@ -8,7 +8,7 @@ use pyo3::types::{PyDict, PyType};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::mpsc;
 use std::time::Duration;
-use tetlap::{Cancel, Error, Feature};
+use tetlap::{Cancel, CoefficientProblem, Error, Feature};
 
 /// The exception classes of `tetlap.errors`, imported once when `_core` is initialised.
 struct Classes {
@@ -21,6 +21,7 @@ struct Classes {
     option: Py<PyType>,
     internal: Py<PyType>,
     solve: Py<PyType>,
+    coefficient: Py<PyType>,
 }
 
 static CLASSES: PyOnceLock<Classes> = PyOnceLock::new();
@@ -39,6 +40,7 @@ pub fn init(py: Python<'_>) -> PyResult<()> {
         option: class("OptionError")?,
         internal: class("InternalError")?,
         solve: class("SolveError")?,
+        coefficient: class("CoefficientError")?,
     };
     let _ = CLASSES.set(py, classes);
     Ok(())
@@ -190,6 +192,93 @@ pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
             &[("index", i(row))],
         ),
         Error::OutOfMemory { .. } => raise(py, &c.solve, e.to_string(), &[]),
+        Error::Coefficient { element, kind, density, problem } => {
+            let name = if density { "density" } else { "coefficient" };
+            coefficient_error(py, element, (name, kind, "element"), density, problem)
+        }
+        Error::CoefficientUnsupported { what } => {
+            raise(py, &c.option, format!("{what} does not take a coefficient or a density"), &[])
+        }
+    }
+}
+
+/// The exception for a refused coefficient or density value: `NonFiniteError` or
+/// `CoefficientError`, naming the value's place `element` (`None`: the one tensor of every
+/// element) in the words of `(name, noun, attribute)`: the array's name, what one value
+/// belongs to ("tet", "vertex") and the exception's attribute holding its index.
+pub fn coefficient_error(
+    py: Python<'_>,
+    element: Option<usize>,
+    (name, kind, attribute): (&str, &str, &'static str),
+    density: bool,
+    problem: CoefficientProblem,
+) -> PyErr {
+    let c = classes(py);
+    let which = match element {
+        Some(t) => format!("{name}[{t}] ({kind} {t})"),
+        None => format!("the {name} (one tensor for every {kind})"),
+    };
+    let attributes: Vec<(&str, i64)> = element.map(|t| (attribute, t as i64)).into_iter().collect();
+    match problem {
+        CoefficientProblem::NonFinite { entry, value } => {
+            let at = match (entry, element) {
+                (None, _) => String::new(),
+                (Some((row, col)), Some(t)) => format!(" at {name}[{t}, {row}, {col}]"),
+                (Some((row, col)), None) => format!(" at [{row}, {col}]"),
+            };
+            raise(py, &c.non_finite, format!("{which} is not finite: {}{at}", float(value)), &attributes)
+        }
+        CoefficientProblem::NotPositive { value } => raise(
+            py,
+            &c.coefficient,
+            format!("{which} is {}: a {} must be positive", float(value), if density { "density" } else { "scalar coefficient" }),
+            &attributes,
+        ),
+        CoefficientProblem::NotSymmetric { row, col, asymmetry } => raise(
+            py,
+            &c.coefficient,
+            format!(
+                "{which} is not symmetric: its entries [{row}, {col}] and [{col}, {row}] differ by {} of its largest \
+                 entry (up to {} is taken as rounding); a tensor symmetric to its own precision can be passed as \
+                 (K + K.swapaxes(-1, -2)) / 2",
+                sci(asymmetry),
+                sci(tetlap::element::metric::SYMMETRY_RTOL)
+            ),
+            &attributes,
+        ),
+        CoefficientProblem::NotPositiveDefinite { smallest, largest } => raise(
+            py,
+            &c.coefficient,
+            format!(
+                "{which} is not positive definite: its smallest eigenvalue is {} (its largest {}); a conductivity \
+                 tensor must be symmetric positive definite",
+                sci(smallest),
+                sci(largest)
+            ),
+            &attributes,
+        ),
+    }
+}
+
+/// `x` as Python's `repr` writes it (`nan`, `inf`, `-3.0`, `1e-300`).
+fn float(x: f64) -> String {
+    match x {
+        _ if x.is_nan() => "nan".into(),
+        f64::INFINITY => "inf".into(),
+        f64::NEG_INFINITY => "-inf".into(),
+        _ => format!("{x:?}"),
+    }
+}
+
+/// `x` in scientific notation as Python writes it, six significant digits (`-1.00000e+00`).
+fn sci(x: f64) -> String {
+    let s = format!("{x:.5e}");
+    match s.split_once('e') {
+        Some((mantissa, exponent)) => {
+            let e: i32 = exponent.parse().unwrap_or(0);
+            format!("{mantissa}e{}{:02}", if e < 0 { '-' } else { '+' }, e.abs())
+        }
+        None => s,
     }
 }
 

@@ -23,10 +23,10 @@ use pyo3::prelude::*;
 
 #[pymodule]
 mod _core {
-    use crate::convert::Input;
+    use crate::convert::{Input, MediumArg};
     use crate::errors::compute;
     use crate::options::{OptionsArg, Request};
-    use numpy::{PyReadonlyArray1, PyReadonlyArray2};
+    use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn};
     use pyo3::prelude::*;
 
     #[pymodule_export]
@@ -63,19 +63,59 @@ mod _core {
     /// kind)` (`(m, 6)` or `(m, 3)`), `("element_laplacians", kind)` (`(m, 10)` or `(m, 6)`:
     /// the weights, then the element's diagonal entries), `("triplets", kind)` (`(rows, cols,
     /// vals)`) or `("edge_weights", kind)` (`(edges (E, 2), weights (E,))`).
+    ///
+    /// `medium`: `(coefficient, density)`, the Laplacians' `(m,)` scalars, `(m, d, d)`
+    /// tensors or `(d, d)` tensor and the masses' `(m,)` factors, either `None` (checked by
+    /// the core).
     #[pyfunction]
-    #[pyo3(signature = (points, cells, request, *, weights=None, options=None))]
+    #[pyo3(signature = (points, cells, request, *, weights=None, medium=None, options=None))]
     fn assemble<'py>(
         py: Python<'py>,
         points: PyReadonlyArray2<'py, f64>,
         cells: PyReadonlyArray2<'py, i64>,
         request: Request,
         weights: Option<PyReadonlyArray1<'py, f64>>,
+        medium: Option<MediumArg>,
         options: Option<OptionsArg>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let opts = OptionsArg::options(options);
-        let input = Input::new(py, &points, &cells, weights.as_ref(), &opts)?;
+        let input = Input::new(py, &points, &cells, weights.as_ref(), &opts)?.with(medium);
         compute(py, opts, move |opts| input.run(request, opts))?.into_py(py)
+    }
+
+    /// Checks a coefficient (`density=False`: `(m,)` scalars, `(m, d, d)` tensors or one
+    /// `(d, d)` tensor) or a density (`(m,)`) for `m` elements of `corners` corners (4:
+    /// tets, 3: triangles) in `dim`-space: `None`, or the error naming the element (with
+    /// `vertices=True`, values given per vertex, named `values`: the error names the vertex).
+    #[pyfunction]
+    #[pyo3(signature = (values, m, corners, dim, *, density=false, vertices=false))]
+    fn check_coefficient(
+        py: Python<'_>,
+        values: PyReadonlyArrayDyn<'_, f64>,
+        m: usize,
+        corners: usize,
+        dim: usize,
+        density: bool,
+        vertices: bool,
+    ) -> PyResult<()> {
+        use crate::convert::CoefficientArg;
+        let arg = CoefficientArg::new(py, &values)?;
+        let run = || -> tetlap::Result<()> {
+            match (density, corners, &arg) {
+                (true, 4, CoefficientArg::Scalar(d)) => tetlap::check_density::<tetlap::Tet>(d, m),
+                (true, _, CoefficientArg::Scalar(d)) => tetlap::check_density::<tetlap::Tri>(d, m),
+                (true, ..) => Err(tetlap::Error::Shape { what: "internal: a density is (m,)".into() }),
+                (false, 4, c) => tetlap::check_coefficient::<tetlap::Tet>(c.view(), m, dim),
+                (false, _, c) => tetlap::check_coefficient::<tetlap::Tri>(c.view(), m, dim),
+            }
+        };
+        let opts = tetlap::Options::default();
+        match py.detach(|| opts.install(run)) {
+            Err(tetlap::Error::Coefficient { element, density, problem, .. }) if vertices => {
+                Err(crate::errors::coefficient_error(py, element, ("values", "vertex", "vertex"), density, problem))
+            }
+            result => result.map_err(|e| crate::errors::to_py(py, e)),
+        }
     }
 
     /// Checks the options before any work (what every call does first): `None` or an

@@ -6,14 +6,14 @@
 //! sees the mesh before or after the update, never in between). Locks are only taken on
 //! the worker thread, without the GIL, so they cannot deadlock with it.
 
-use crate::convert::{indptr_array, Cells, Input};
+use crate::convert::{contiguous, indptr_array, Cells, Input, MediumArg};
 use crate::errors::{compute, guarded, shape_error};
 use crate::options::{Kind, MassArg, OptionsArg};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use std::sync::{RwLock, RwLockReadGuard, RwLockWriteGuard};
-use tetlap::{CachedMesh, Cancel, Tet, Tri};
+use tetlap::{CachedMesh, Cancel, Change, Tet, Tri};
 
 /// The cached mesh of either element kind.
 enum AnyMesh {
@@ -75,22 +75,32 @@ impl PyMesh {
 #[pymethods]
 impl PyMesh {
     #[new]
-    #[pyo3(signature = (points, cells, *, weights=None, options=None))]
+    #[pyo3(signature = (points, cells, *, weights=None, medium=None, options=None))]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
         cells: PyReadonlyArray2<'_, i64>,
         weights: Option<PyReadonlyArray1<'_, f64>>,
+        medium: Option<MediumArg>,
         options: Option<OptionsArg>,
     ) -> PyResult<Self> {
         let opts = OptionsArg::options(options);
-        let Input { points, dim, cells, weights } = Input::new(py, &points, &cells, weights.as_ref(), &opts)?;
+        let Input { points, dim, cells, weights, medium } = Input::new(py, &points, &cells, weights.as_ref(), &opts)?.with(medium);
         let inner = compute(py, opts, move |opts| {
             let opts = opts.clone();
+            let change = |m: &mut AnyMesh| -> tetlap::Result<()> {
+                let change = Change {
+                    coefficient: medium.coefficient.as_ref().map(|c| Some(c.view())),
+                    density: medium.density.as_deref().map(Some),
+                    ..Change::default()
+                };
+                with_mesh!(m, m => m.change(change)).map(drop)
+            };
             let mut mesh = match cells {
                 Cells::Tets(c) => AnyMesh::Tets(CachedMesh::with_vertex_weights(points, dim, c, weights, opts)?),
                 Cells::Tris(c) => AnyMesh::Tris(CachedMesh::with_vertex_weights(points, dim, c, weights, opts)?),
             };
+            change(&mut mesh)?;
             with_mesh!(&mut mesh, m => m.set_cancel(None));
             Ok(mesh)
         })?;
@@ -127,19 +137,34 @@ impl PyMesh {
         Ok(PyArray1::from_vec(py, values))
     }
 
-    /// Moves the vertices; returns `(moved_vertices, recomputed_elements, recomputed_rows)`.
-    fn update(&self, py: Python<'_>, points: PyReadonlyArray2<'_, f64>) -> PyResult<(usize, usize, usize)> {
-        if points.shape()[1] != self.dim {
-            let message = format!("the new points must have {} columns, got {}", self.dim, points.shape()[1]);
-            return Err(shape_error(py, message));
+    /// Moves the vertices and sets a new medium (coefficient, density), each `None` kept,
+    /// at once; returns `(moved_vertices, recomputed_elements, recomputed_rows)`.
+    #[pyo3(signature = (points=None, *, medium=None))]
+    fn update(
+        &self,
+        py: Python<'_>,
+        points: Option<PyReadonlyArray2<'_, f64>>,
+        medium: Option<MediumArg>,
+    ) -> PyResult<(usize, usize, usize)> {
+        if let Some(points) = &points {
+            if points.shape()[1] != self.dim {
+                let message = format!("the new points must have {} columns, got {}", self.dim, points.shape()[1]);
+                return Err(shape_error(py, message));
+            }
         }
-        let new = points.as_slice().map_err(|_| shape_error(py, "internal: arrays must be C-contiguous".into()))?.to_vec();
+        let new = points.as_ref().map(|p| contiguous(py, p).map(<[f64]>::to_vec)).transpose()?;
+        let MediumArg { coefficient, density } = medium.unwrap_or_default();
         let cancel = Cancel::new();
         let u = guarded(py, &cancel, || {
             let mut mesh = self.write();
+            let change = Change {
+                points: new.as_deref(),
+                coefficient: coefficient.as_ref().map(|c| Some(c.view())),
+                density: density.as_deref().map(Some),
+            };
             with_mesh!(&mut *mesh, m => {
                 m.set_cancel(Some(cancel.clone()));
-                let result = m.update(&new);
+                let result = m.change(change);
                 m.set_cancel(None);
                 result
             })

@@ -7,7 +7,7 @@ use crate::assembly::pass::{boundary_mask, Elements};
 use crate::element::Request;
 use crate::error::{Error, Result};
 use crate::assembly::order::Layout;
-use crate::mesh::MeshView;
+use crate::mesh::{check_coefficient, check_density, Coefficient, MeshView};
 use crate::options::{LaplacianKind, MassKind, Options};
 use crate::assembly::pass::{values, values_of, FirstFault, Slots};
 use crate::element::{LaplacianValues, Simplex, Tet};
@@ -29,7 +29,8 @@ struct Cached<K, T> {
 pub struct Update {
     /// Vertices whose coordinates changed.
     pub moved_vertices: usize,
-    /// Elements around them (recomputed once per cached operator).
+    /// Elements around them and elements whose coefficient or density changed
+    /// (recomputed once per cached operator).
     pub recomputed_elements: usize,
     /// Rows (vertices) whose values were re-summed.
     pub recomputed_rows: usize,
@@ -69,6 +70,76 @@ pub struct CachedMesh<S: Simplex = Tet> {
     topology: Topology,
     laplacians: Vec<Cached<LaplacianKind, LaplacianValues<S>>>,
     masses: Vec<Cached<MassKind, S::CornerValues>>,
+    /// The coefficient of the Laplacians, in the user's element order.
+    coefficient: Option<Stored>,
+    /// The density of the masses, in the user's element order.
+    density: Option<Vec<f64>>,
+}
+
+/// A coefficient owned by a [`CachedMesh`].
+#[derive(Debug, Clone, PartialEq)]
+enum Stored {
+    Scalar(Vec<f64>),
+    Tensor(Vec<f64>),
+    Constant(Vec<f64>),
+}
+
+impl Stored {
+    fn new(c: Coefficient) -> Self {
+        match c {
+            Coefficient::Scalar(v) => Stored::Scalar(v.to_vec()),
+            Coefficient::Tensor(v) => Stored::Tensor(v.to_vec()),
+            Coefficient::Constant(v) => Stored::Constant(v.to_vec()),
+        }
+    }
+
+    fn view(&self) -> Coefficient<'_> {
+        match self {
+            Stored::Scalar(v) => Coefficient::Scalar(v),
+            Stored::Tensor(v) => Coefficient::Tensor(v),
+            Stored::Constant(v) => Coefficient::Constant(v),
+        }
+    }
+}
+
+/// What [`CachedMesh::change`] changes; each `None` keeps what the mesh has.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Change<'a> {
+    /// New coordinates (user order, the mesh's shape, finite).
+    pub points: Option<&'a [f64]>,
+    /// A new coefficient of the Laplacians (`Some(None)`: none, the plain Laplacians).
+    pub coefficient: Option<Option<Coefficient<'a>>>,
+    /// A new density of the masses (`Some(None)`: none).
+    pub density: Option<Option<&'a [f64]>>,
+}
+
+/// The user elements whose values of `per` each differ between `old` and `new` (both of
+/// `m` elements, or none: all of them when one is absent), ascending.
+fn changed(old: Option<&[f64]>, new: Option<&[f64]>, per: usize, m: usize) -> Vec<u32> {
+    match (old, new) {
+        (None, None) => vec![],
+        (Some(a), Some(b)) => {
+            let differ = |t: usize| a[t * per..][..per].iter().zip(&b[t * per..][..per]).any(|(x, y)| x.to_bits() != y.to_bits());
+            (0..m).into_par_iter().filter(|&t| differ(t)).map(|t| t as u32).collect()
+        }
+        _ => (0..m as u32).collect(),
+    }
+}
+
+/// [`changed`] for coefficients: elements whose values differ, all of them when the form
+/// changes (scalar, tensor, constant tensor); no coefficient is a scalar 1 (whose values
+/// are the plain ones, bit for bit).
+fn changed_coefficient<S: Simplex>(old: Option<Coefficient>, new: Option<Coefficient>, m: usize) -> Vec<u32> {
+    let dd = S::MIN_DIM * S::MIN_DIM;
+    let ones = |c: &[f64]| (0..m).into_par_iter().filter(|&t| c[t] != 1.0).map(|t| t as u32).collect();
+    match (old, new) {
+        (Some(Coefficient::Scalar(a)), Some(Coefficient::Scalar(b))) => changed(Some(a), Some(b), 1, m),
+        (None, Some(Coefficient::Scalar(c))) | (Some(Coefficient::Scalar(c)), None) => ones(c),
+        (Some(Coefficient::Tensor(a)), Some(Coefficient::Tensor(b))) => changed(Some(a), Some(b), dd, m),
+        (Some(Coefficient::Constant(a)), Some(Coefficient::Constant(b))) if a == b => vec![],
+        (None, None) => vec![],
+        _ => (0..m as u32).collect(),
+    }
 }
 
 impl<S: Simplex> CachedMesh<S> {
@@ -100,7 +171,92 @@ impl<S: Simplex> CachedMesh<S> {
         })?;
         opts.cancelled()?;
         let (laplacians, masses) = (vec![], vec![]);
-        Ok(CachedMesh { layout, user_points: points, boundary, opts, topology, laplacians, masses })
+        let (coefficient, density) = (None, None);
+        Ok(CachedMesh { layout, user_points: points, boundary, opts, topology, laplacians, masses, coefficient, density })
+    }
+
+    /// The coefficient of the Laplacians (see [`MeshView::with_coefficient`]), if any.
+    pub fn coefficient(&self) -> Option<Coefficient<'_>> {
+        self.coefficient.as_ref().map(Stored::view)
+    }
+
+    /// The density of the masses (see [`MeshView::with_density`]), if any.
+    pub fn density(&self) -> Option<&[f64]> {
+        self.density.as_deref()
+    }
+
+    /// Sets the coefficient of the Laplacians (`None`: the plain ones) and refreshes every
+    /// cached operator (see [`CachedMesh::change`]): only the elements whose coefficient
+    /// changed are recomputed, no topology.
+    ///
+    /// ```
+    /// use tetlap::{laplacian, CachedMesh, Coefficient, LaplacianKind, Options, Tet, TetView};
+    /// let points = vec![0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.];
+    /// let cells = vec![[0, 1, 2, 3], [4, 2, 1, 3]];
+    /// let mut mesh = CachedMesh::<Tet>::new(points.clone(), 3, cells.clone(), Options::default())?;
+    /// mesh.laplacian(LaplacianKind::Primal)?;
+    /// for c in [[1.0, 4.0], [3.0, 4.0]] {
+    ///     // the second tet four times more conductive, then the first three times
+    ///     mesh.set_coefficient(Some(Coefficient::Scalar(&c)))?;
+    ///     let fresh = TetView::new(&points, 3, &cells)?.with_coefficient(Coefficient::Scalar(&c))?;
+    ///     assert_eq!(mesh.laplacian(LaplacianKind::Primal)?, laplacian(&fresh, LaplacianKind::Primal, &Options::default())?);
+    /// }
+    /// # Ok::<(), tetlap::Error>(())
+    /// ```
+    pub fn set_coefficient(&mut self, coefficient: Option<Coefficient>) -> Result<Update> {
+        self.change(Change { coefficient: Some(coefficient), ..Change::default() })
+    }
+
+    /// Sets the density of the masses (`None`: none) and refreshes every cached operator
+    /// (see [`CachedMesh::change`]).
+    pub fn set_density(&mut self, density: Option<&[f64]>) -> Result<Update> {
+        self.change(Change { density: Some(density), ..Change::default() })
+    }
+
+    /// Changes the coordinates, the coefficient and the density at once (each `None` of
+    /// `change` keeps the mesh's) and refreshes every cached operator: only the elements
+    /// around moved vertices and those whose coefficient or density changed (bitwise) are
+    /// recomputed, and only the rows of their corners re-summed (beyond an eighth of the
+    /// vertices or elements, all of them). No topology is recomputed: the result is
+    /// bitwise equal to a fresh assembly of the new mesh. On error (bad input, an element
+    /// that became degenerate under [`crate::Degenerate::Raise`], cancellation) nothing
+    /// changes.
+    pub fn change(&mut self, change: Change) -> Result<Update> {
+        let (m, dim) = (self.layout.cells.len(), self.layout.dim);
+        if let Some(Some(c)) = change.coefficient {
+            super::install::<S, _>(&self.opts, || check_coefficient::<S>(c, m, dim))?;
+        }
+        if let Some(Some(d)) = change.density {
+            super::install::<S, _>(&self.opts, || check_density::<S>(d, m))?;
+        }
+        let (moved, coords) = match change.points {
+            Some(points) => {
+                let moved = self.moved_vertices(points)?;
+                let coords: Vec<f64> = moved.iter().flat_map(|&v| &points[v as usize * dim..][..dim]).copied().collect();
+                (moved, coords)
+            }
+            None => (vec![], vec![]),
+        };
+        let mut elements: Vec<u32> = Vec::new();
+        if let Some(c) = change.coefficient {
+            elements.extend(changed_coefficient::<S>(self.coefficient(), c, m));
+        }
+        if let Some(d) = change.density {
+            elements.extend(changed(self.density.as_deref(), d, 1, m));
+        }
+        let internal: Vec<u32> = elements.iter().map(|&t| self.layout.internal_of[t as usize]).collect();
+        let old = (self.coefficient.clone(), self.density.clone());
+        if let Some(c) = change.coefficient {
+            self.coefficient = c.map(Stored::new);
+        }
+        if let Some(d) = change.density {
+            self.density = d.map(<[f64]>::to_vec);
+        }
+        let result = self.move_vertices_and(&moved, &coords, &internal);
+        if result.is_err() {
+            (self.coefficient, self.density) = old;
+        }
+        result
     }
 
     /// The current coordinates in the user's order, row-major `(n, dim)` (a copy).
@@ -149,7 +305,7 @@ impl<S: Simplex> CachedMesh<S> {
 
     fn elements(&self) -> Elements<'_, S> {
         let boundary = self.boundary.as_deref().map(std::borrow::Cow::Borrowed);
-        Elements::internal(self.layout.mesh(), &self.layout.element_of, boundary)
+        Elements::internal(self.layout.mesh(), &self.layout.element_of, boundary).with(self.coefficient(), self.density())
     }
 
     /// CSR data of the Laplacian of `kind` on [`CachedMesh::topology`]'s pattern, if it is
@@ -224,10 +380,7 @@ impl<S: Simplex> CachedMesh<S> {
     /// Moves the vertices to `points` (user order, same shape, finite) and refreshes every
     /// cached operator (see [`CachedMesh::move_vertices`]).
     pub fn update(&mut self, points: &[f64]) -> Result<Update> {
-        let moved = self.moved_vertices(points)?;
-        let dim = self.layout.dim;
-        let coords: Vec<f64> = moved.iter().flat_map(|&v| &points[v as usize * dim..][..dim]).copied().collect();
-        self.move_vertices(&moved, &coords)
+        self.change(Change { points: Some(points), ..Change::default() })
     }
 
     /// The (user) vertices whose coordinates differ in `points` (same shape as the mesh's),
@@ -272,6 +425,12 @@ impl<S: Simplex> CachedMesh<S> {
     /// degenerate under [`crate::Degenerate::Raise`], a non-finite coordinate, a bad vertex
     /// list, cancellation) nothing changes.
     pub fn move_vertices(&mut self, moved: &[u32], coords: &[f64]) -> Result<Update> {
+        self.move_vertices_and(moved, coords, &[])
+    }
+
+    /// [`CachedMesh::move_vertices`], recomputing also the internal elements `elements`
+    /// (whose coefficient or density changed).
+    fn move_vertices_and(&mut self, moved: &[u32], coords: &[f64], elements: &[u32]) -> Result<Update> {
         let (dim, n) = (self.layout.dim, self.n_vertices());
         if coords.len() != moved.len() * dim {
             return Err(Error::Shape {
@@ -302,7 +461,7 @@ impl<S: Simplex> CachedMesh<S> {
         };
         write(&mut self.layout.points, coords);
         write_user(&mut self.user_points, coords);
-        let result = self.refresh(&internal);
+        let result = self.refresh(&internal, elements);
         if result.is_err() {
             write(&mut self.layout.points, &old);
             write_user(&mut self.user_points, &old);
@@ -310,20 +469,21 @@ impl<S: Simplex> CachedMesh<S> {
         result
     }
 
-    /// Recomputes the cached operators after the internal vertices `moved` changed
-    /// (coordinates already in place).
-    fn refresh(&mut self, moved: &[u32]) -> Result<Update> {
-        let n = self.n_vertices();
+    /// Recomputes the cached operators after the internal vertices `moved` and the
+    /// coefficients or densities of the internal elements `elements` changed (in place).
+    fn refresh(&mut self, moved: &[u32], elements: &[u32]) -> Result<Update> {
+        let (n, m) = (self.n_vertices(), self.layout.cells.len());
         if self.laplacians.is_empty() && self.masses.is_empty() {
-            // nothing cached yet: the next request assembles from the new coordinates
+            // nothing cached yet: the next request assembles from the new mesh
             return Ok(Update { moved_vertices: moved.len(), ..Update::default() });
         }
         let k = S::CORNERS;
-        let full = moved.len() > n / 8;
+        let full = moved.len() > n / 8 || elements.len() > m / 8;
         let topo = &self.topology;
         let (mut listed, mut rows) = (Vec::new(), Vec::new());
         if !full {
             listed = moved.iter().flat_map(|&v| topo.corners.of(v as usize)).map(|&q| q / k as u32).collect();
+            listed.extend_from_slice(elements);
             listed.sort_unstable();
             listed.dedup();
             rows = listed.iter().flat_map(|&t| self.layout.cells[t as usize].as_ref().to_vec()).collect();

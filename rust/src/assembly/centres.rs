@@ -66,6 +66,7 @@ pub struct DualCentres {
 /// # Ok::<(), tetlap::Error>(())
 /// ```
 pub fn dual_centres(mesh: &MeshView<Tet>, opts: &Options) -> Result<DualCentres> {
+    mesh.plain("dual_centres")?;
     let (points, dim, cells) = (mesh.points(), mesh.dim(), mesh.cells());
     let width = 5 * dim;
     let mut out = DualCentres { points: vec![0.0; cells.len() * width], tets: vec![TetDual::default(); cells.len()] };

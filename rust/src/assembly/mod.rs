@@ -20,7 +20,7 @@ pub(crate) mod pattern;
 pub(crate) mod scatter;
 pub mod vjp;
 
-pub use cached::{CachedMesh, Update};
+pub use cached::{CachedMesh, Change, Update};
 pub use centres::{dual_centres, DualCentres, TetDual};
 pub use gradient::gradients;
 pub use one_shot::{contributions, edge_weights, element_laplacians, laplacian, mass, operators, operators_skipping, triplets, Skipped, Skips};

@@ -66,7 +66,7 @@ fn one_shot<S: Simplex>(mesh: &MeshView<S>, opts: &Options, request: Request) ->
     let indptr = row_starts::<S>(&layout.cells, &corners, &layout.vertex_of, opts)?;
     let internal = layout.mesh();
     let boundary = boundary_mask(&internal, opts)?.map(Cow::Owned);
-    let elements = Elements::internal(internal, &layout.element_of, boundary);
+    let elements = Elements::internal(internal, &layout.element_of, boundary).with(mesh.coefficient(), mesh.density());
     assemble(&layout, &elements, &corners, indptr, request, opts)
 }
 

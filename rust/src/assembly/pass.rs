@@ -2,10 +2,11 @@
 //! does not depend on the scheduling), faults are collected as the faulty element with the
 //! lowest user index, and the cancel flag is polled between chunks.
 
+use crate::element::metric::Metric;
 use crate::element::tet::batch::LANES;
-use crate::element::{Element, Fault, Request, Simplex};
+use crate::element::{Element, Fault, Request, Scales, Simplex};
 use crate::error::{Error, Result};
-use crate::mesh::MeshView;
+use crate::mesh::{Coefficient, MeshView};
 use crate::options::{Boundary, Degenerate, Options};
 use crate::topology::boundary_elements;
 use rayon::prelude::*;
@@ -18,6 +19,18 @@ pub(crate) struct Elements<'a, S: Simplex> {
     boundary: Option<Cow<'a, [bool]>>,
     /// The user's index of every element of `mesh` (`None`: the same order).
     element_of: Option<&'a [u32]>,
+    /// The coefficient of the Laplacians, in the user's element order.
+    coefficient: Option<Prepared<'a, S::Tensor>>,
+    /// The density of the masses, in the user's element order.
+    density: Option<&'a [f64]>,
+}
+
+/// A coefficient as the elements take it: a constant tensor factored once.
+#[derive(Clone, Copy)]
+enum Prepared<'a, T> {
+    Scalar(&'a [f64]),
+    Tensor(&'a [f64]),
+    Constant(T),
 }
 
 /// Which elements get the barycentric boundary fix, if the options ask for it.
@@ -31,13 +44,43 @@ pub(crate) fn boundary_mask<S: Simplex>(mesh: &MeshView<S>, opts: &Options) -> R
 impl<'a, S: Simplex> Elements<'a, S> {
     /// The elements of a mesh in the user's order.
     pub fn new(mesh: MeshView<'a, S>, opts: &Options) -> Result<Self> {
-        Ok(Elements { mesh, boundary: boundary_mask(&mesh, opts)?.map(Cow::Owned), element_of: None })
+        let elements = Elements {
+            mesh,
+            boundary: boundary_mask(&mesh, opts)?.map(Cow::Owned),
+            element_of: None,
+            coefficient: None,
+            density: None,
+        };
+        Ok(elements.with(mesh.coefficient(), mesh.density()))
     }
 
     /// The elements of an internal mesh whose element `t` is the user's `element_of[t]`,
     /// with a boundary mask computed before (see [`boundary_mask`]).
     pub fn internal(mesh: MeshView<'a, S>, element_of: &'a [u32], boundary: Option<Cow<'a, [bool]>>) -> Self {
-        Elements { mesh, boundary, element_of: Some(element_of) }
+        Elements { mesh, boundary, element_of: Some(element_of), coefficient: None, density: None }
+    }
+
+    /// The same elements with a coefficient and a density in the user's element order
+    /// (checked before: [`MeshView::with_coefficient`], [`MeshView::with_density`]).
+    pub fn with(mut self, coefficient: Option<Coefficient<'a>>, density: Option<&'a [f64]>) -> Self {
+        self.coefficient = coefficient.map(|c| match c {
+            Coefficient::Scalar(v) => Prepared::Scalar(v),
+            Coefficient::Tensor(v) => Prepared::Tensor(v),
+            Coefficient::Constant(k) => Prepared::Constant(S::tensor_unchecked(k)),
+        });
+        self.density = density;
+        self
+    }
+
+    /// The coefficient of the element with user index `u`.
+    #[inline]
+    fn metric(&self, u: usize) -> Option<Metric<S::Tensor>> {
+        let dd = S::MIN_DIM * S::MIN_DIM;
+        self.coefficient.map(|c| match c {
+            Prepared::Scalar(v) => Metric::Scalar(v[u]),
+            Prepared::Tensor(v) => Metric::Tensor(S::tensor_unchecked(&v[u * dd..][..dd])),
+            Prepared::Constant(k) => Metric::Tensor(k),
+        })
     }
 
     /// The user's index of element `t`.
@@ -62,7 +105,9 @@ impl<'a, S: Simplex> Elements<'a, S> {
             corner
         });
         let fix_boundary = self.boundary.as_ref().is_some_and(|b| b[t]);
+        let u = self.user_index(t);
         Element::new(local, self.mesh.points(), self.mesh.dim(), cell, vertex_weights, fix_boundary)
+            .with(self.metric(u), self.density.map(|d| d[u]))
     }
 }
 
@@ -85,6 +130,39 @@ impl<S: Simplex> Elements<'_, S> {
         let Slots { mut w, mut d, mut m } = out;
         let (points, dim, cells) = (self.mesh.points(), self.mesh.dim(), self.mesh.cells());
         let batched = self.mesh.vertex_weights().is_none() && request.batched();
+        // the elements' coefficients and densities in the order of this call, gathered at
+        // once (the elements come in the internal order, the values in the user's: loads
+        // that overlap, instead of one cache miss per element in the kernels' loop)
+        let gather = |v: &[f64], per: usize| -> Vec<f64> {
+            let mut out = Vec::with_capacity(count * per);
+            (0..count).for_each(|k| out.extend_from_slice(&v[self.user_index(t_of(k)) * per..][..per]));
+            out
+        };
+        let dd = S::MIN_DIM * S::MIN_DIM;
+        let coefficients = match self.coefficient {
+            Some(Prepared::Scalar(v)) if batched => gather(v, 1),
+            Some(Prepared::Tensor(v)) if batched => gather(v, dd),
+            _ => Vec::new(),
+        };
+        let densities = self.density.filter(|_| batched).map(|v| gather(v, 1));
+        // the lanes' coefficients and densities
+        let scales = |items: &[(usize, usize)]| -> Scales<S::Tensor> {
+            let k = |i: usize| items[i.min(items.len() - 1)].0;
+            let at = |v: &[f64]| std::array::from_fn(|i| v[k(i)]);
+            let (coefficient, tensors) = match self.coefficient {
+                None => (None, None),
+                Some(Prepared::Scalar(_)) => (Some(at(&coefficients)), None),
+                Some(Prepared::Tensor(_)) => {
+                    let mut raw = [[0.0; 9]; LANES];
+                    for (i, r) in raw.iter_mut().enumerate() {
+                        r[..dd].copy_from_slice(&coefficients[k(i) * dd..][..dd]);
+                    }
+                    (None, Some(S::tensors(&raw).0))
+                }
+                Some(Prepared::Constant(k)) => (None, Some([k; LANES])),
+            };
+            Scales { coefficient, tensors, density: densities.as_deref().map(at) }
+        };
         let fixed = |t: usize| self.boundary.as_ref().is_some_and(|b| b[t]);
         // the elements no batch computed: (k, t)
         let mut left: Vec<(usize, usize)> = Vec::new();
@@ -107,8 +185,8 @@ impl<S: Simplex> Elements<'_, S> {
             let cells = &cells[..items.len()];
             let out = (&mut wl[..], &mut dl[..], &mut ml[..]);
             let done = match precise {
-                false => S::at_once(points, dim, cells, request, out),
-                true => S::precise_at_once(points, dim, cells, request, out),
+                false => S::at_once(points, dim, cells, request, &scales(items), out),
+                true => S::precise_at_once(points, dim, cells, request, &scales(items), out),
             };
             for (i, &(k, t)) in items.iter().enumerate() {
                 if done[i] && !fixed(t) {

@@ -433,8 +433,10 @@ fn tet_gradient(
 /// tet under [`crate::Degenerate::Raise`] ([`Error::Degenerate`], [`Error::NonFiniteResult`]),
 /// products with the cotangents beyond the `f64` range ([`Error::Overflow`], whatever the
 /// policy: the element is fine, its cotangents are too large), sums beyond the `f64` range
-/// ([`Error::SumOverflow`]), [`Error::Cancelled`].
+/// ([`Error::SumOverflow`]), [`Error::Cancelled`]; a mesh with a coefficient or a density
+/// ([`Error::CoefficientUnsupported`]).
 pub fn vjp(mesh: &TetView, cotangents: &Cotangents, opts: &Options) -> Result<MeshGradient> {
+    mesh.plain("the derivatives (vjp)")?;
     super::install::<Tet, _>(opts, || {
         let plan = Plan::new(mesh, cotangents, opts)?;
         let (n, m, dim) = (mesh.n_vertices(), mesh.n_elements(), mesh.dim());

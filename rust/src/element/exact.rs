@@ -143,6 +143,15 @@ impl Dd {
         Dd { hi: s, lo: e }
     }
 
+    /// `self c` for an `f64` `c` (to double-double precision): the exact product of the
+    /// leading part (by [`two_product`], or 0 when a factor is 0, which needs no fused
+    /// multiply-add), plus the trailing part's.
+    #[inline]
+    pub fn times(self, c: f64) -> Self {
+        let (p, e) = if self.hi == 0.0 || c == 0.0 { (self.hi * c, 0.0) } else { two_product(self.hi, c) };
+        Dd::new(p, e + self.lo * c)
+    }
+
     /// The value rounded to `f64`.
     #[inline]
     pub fn to_f64(self) -> f64 {

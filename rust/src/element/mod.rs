@@ -12,12 +12,15 @@
 //!   and their reverse derivatives ([`tet::derivatives`]);
 //! * [`tri`]: the kernels of one triangle;
 //! * [`gradient`]: the gradients of an element's barycentric coordinates (P1 gradients);
+//! * [`metric`]: an element's coefficient (a conductivity `K`: a positive scalar or an SPD
+//!   tensor) as its kernels use it: the element mapped into the metric `K^-1`;
 //! * [`Simplex`]: what the drivers need to know about an element kind ([`Tet`], [`Tri`]).
 
 pub mod bounded;
 pub mod exact;
 pub mod frame;
 pub mod gradient;
+pub mod metric;
 pub mod rational;
 pub mod tet;
 pub mod tri;
@@ -26,7 +29,7 @@ mod evaluate;
 mod simplex;
 
 pub(crate) use evaluate::{Element, Fault, LaplacianValues};
-pub use evaluate::{Request, ACCURACY};
+pub use evaluate::{Request, Scales, ACCURACY};
 pub use frame::{local_tet, local_tri, LocalTet, LocalTri};
 pub(crate) use simplex::edge_index;
 pub use simplex::{corner_sums, Simplex, Tet, Tri, Values};

@@ -5,11 +5,13 @@
 //! implementations below only say how many corners and which edges an element has and
 //! which kernels of [`super::tet`] and [`super::tri`] compute its contributions.
 
-use super::evaluate::{tets_at_once, tets_precise_at_once, Outputs, Request};
+use super::evaluate::{tets_at_once, tets_precise_at_once, Outputs, Request, Scales};
 use super::frame::{local_tet, local_tri, LocalTet, LocalTri};
 use super::tet::batch::LANES;
 use super::tet::Placement;
 use super::{tet, tri};
+use super::metric::{mapped_tet, mapped_tri, Factored, Tensor};
+use crate::error::CoefficientProblem;
 use crate::options::LaplacianKind;
 use std::fmt::Debug;
 
@@ -102,19 +104,73 @@ pub trait Simplex: Copy + Debug + Default + Send + Sync + 'static {
         weights: Option<&Self::CornerValues>,
         placement: Placement,
     ) -> Option<(Self::EdgeValues, Self::CornerValues)>;
+    /// A symmetric positive definite tensor of this kind's own space (`MIN_DIM` squared
+    /// values), factored for the kernels ([`crate::element::metric::Tensor`]).
+    type Tensor: Factored + Debug + PartialEq + Send + Sync;
+    /// Checks and factors the tensor `k` (row-major): the one check of every tensor.
+    fn tensor(k: &[f64]) -> Result<Self::Tensor, CoefficientProblem>;
+    /// [`Simplex::tensor`] of a tensor it accepts, without the checks.
+    fn tensor_unchecked(k: &[f64]) -> Self::Tensor;
+    /// [`Simplex::tensor_unchecked`] of [`LANES`] tensors at once (`k[lane]`, the first
+    /// `MIN_DIM` squared values), bit for bit, and whether each passes
+    /// [`Simplex::tensor`]'s checks.
+    fn tensors(k: &[[f64; 9]; LANES]) -> ([Self::Tensor; LANES], [bool; LANES]);
+    /// The element with corners `corners` (in `MIN_DIM`-space) and frame `l` mapped by the
+    /// factor of `k` ([`crate::element::metric`]): the frame its Laplacian kernels see (its
+    /// length unit as its scale) and the slack of its shape test
+    /// ([`Simplex::well_shaped_within`]).
+    fn mapped(corners: &[&[f64]], l: &Self::Local, k: &Self::Tensor) -> (Self::Local, f64);
+    /// [`Simplex::well_shaped`] of a frame whose edges are rounded `slack` times more
+    /// coarsely than an element's own (a mapped element).
+    fn well_shaped_within(l: &Self::Local, slack: f64) -> bool {
+        let _ = slack;
+        Self::well_shaped(l)
+    }
+    /// [`Simplex::primal_precise`] of the element (corners, frame `l`) mapped by `k` into
+    /// the frame `mapped`, or `None` when this kind has no precise path.
+    fn primal_mapped_precise(
+        corners: &[&[f64]],
+        l: &Self::Local,
+        mapped: &Self::Local,
+        k: &Self::Tensor,
+    ) -> Option<(Self::EdgeValues, Self::CornerValues)> {
+        let _ = (corners, l, mapped, k);
+        None
+    }
+    /// The dual weights of the element mapped by `k` by the precise path (vertex weights in
+    /// the mapped frame's squared lengths), or `None` when this kind has none.
+    fn dual_mapped_precise(
+        corners: &[&[f64]],
+        l: &Self::Local,
+        mapped: &Self::Local,
+        k: &Self::Tensor,
+        weights: Option<&Self::CornerValues>,
+        placement: Placement,
+    ) -> Option<Self::EdgeValues> {
+        let _ = (corners, l, mapped, k, weights, placement);
+        None
+    }
     /// `request` (one that is [`Request::batched`]) on up to [`LANES`] elements `cells` of
-    /// `points` (`dim` columns, no vertex weights, no boundary fix) at once, by vectorised
-    /// `f64` kernels: which of them it computed (into `w[k]`, the Laplacian's diagonal
-    /// entries into `d[k]`, `m[k]`), bit for bit as the one-element path would; the others
-    /// take that path. None of them by default.
-    fn at_once(points: &[f64], dim: usize, cells: &[Self::Cell], request: Request, out: Out<'_, Self>) -> [bool; LANES] {
-        let _ = (points, dim, cells, request, out);
+    /// `points` (`dim` columns, no vertex weights, no boundary fix; `scales` their scalar
+    /// coefficients or tensors, and densities) at once, by vectorised `f64`
+    /// kernels: which of them it computed (into `w[k]`, the Laplacian's diagonal entries
+    /// into `d[k]`, `m[k]`), bit for bit as the one-element path would; the others take
+    /// that path. None of them by default.
+    fn at_once(points: &[f64], dim: usize, cells: &[Self::Cell], request: Request, scales: &Scales<Self::Tensor>, out: Out<'_, Self>) -> [bool; LANES] {
+        let _ = (points, dim, cells, request, scales, out);
         [false; LANES]
     }
     /// [`Simplex::at_once`] for the elements of the precise path of the accuracy rule,
     /// computed together in extended precision; none of them by default.
-    fn precise_at_once(points: &[f64], dim: usize, cells: &[Self::Cell], request: Request, out: Out<'_, Self>) -> [bool; LANES] {
-        let _ = (points, dim, cells, request, out);
+    fn precise_at_once(
+        points: &[f64],
+        dim: usize,
+        cells: &[Self::Cell],
+        request: Request,
+        scales: &Scales<Self::Tensor>,
+        out: Out<'_, Self>,
+    ) -> [bool; LANES] {
+        let _ = (points, dim, cells, request, scales, out);
         [false; LANES]
     }
 }
@@ -162,6 +218,44 @@ impl Simplex for Tet {
     type EdgeValues = [f64; 6];
     type CornerValues = [f64; 4];
     type Local = LocalTet;
+    type Tensor = Tensor<3>;
+
+    fn tensor(k: &[f64]) -> Result<Tensor<3>, CoefficientProblem> {
+        Tensor::new(k)
+    }
+
+    fn tensor_unchecked(k: &[f64]) -> Tensor<3> {
+        Tensor::factor(k)
+    }
+
+    fn tensors(k: &[[f64; 9]; LANES]) -> ([Tensor<3>; LANES], [bool; LANES]) {
+        Tensor::factor_lanes(k)
+    }
+
+    fn mapped(corners: &[&[f64]], l: &LocalTet, k: &Tensor<3>) -> (LocalTet, f64) {
+        mapped_tet([corners[0], corners[1], corners[2], corners[3]], l, k)
+    }
+
+    fn well_shaped_within(l: &LocalTet, slack: f64) -> bool {
+        tet::well_shaped_within(l, slack)
+    }
+
+    fn primal_mapped_precise(corners: &[&[f64]], l: &LocalTet, mapped: &LocalTet, k: &Tensor<3>) -> Option<([f64; 6], [f64; 4])> {
+        let p = tet::primal_precise_in([corners[0], corners[1], corners[2], corners[3]], l, Some((mapped, k)));
+        Some((p.weights, p.diagonal))
+    }
+
+    fn dual_mapped_precise(
+        corners: &[&[f64]],
+        l: &LocalTet,
+        mapped: &LocalTet,
+        k: &Tensor<3>,
+        weights: Option<&[f64; 4]>,
+        placement: Placement,
+    ) -> Option<[f64; 6]> {
+        let x = [corners[0], corners[1], corners[2], corners[3]];
+        Some(tet::mapped_dual_precise(x, l, mapped, k, weights, placement))
+    }
 
     fn local(points: &[f64], dim: usize, cell: &[u32; 4], scratch: &mut [f64]) -> LocalTet {
         local_tet(corners(points, dim, cell), scratch)
@@ -219,18 +313,32 @@ impl Simplex for Tet {
         (d.weights, d.cell_volumes)
     }
 
-    fn at_once(points: &[f64], dim: usize, cells: &[[u32; 4]], request: Request, (w, d, m): Out<'_, Self>) -> [bool; LANES] {
+    fn at_once(
+        points: &[f64],
+        dim: usize,
+        cells: &[[u32; 4]],
+        request: Request,
+        scales: &Scales<Tensor<3>>,
+        (w, d, m): Out<'_, Self>,
+    ) -> [bool; LANES] {
         if dim != 3 {
             return [false; LANES];
         }
-        tets_at_once(points, cells, request, Outputs { w, d, m })
+        tets_at_once(points, cells, request, scales, Outputs { w, d, m })
     }
 
-    fn precise_at_once(points: &[f64], dim: usize, cells: &[[u32; 4]], request: Request, (w, d, m): Out<'_, Self>) -> [bool; LANES] {
+    fn precise_at_once(
+        points: &[f64],
+        dim: usize,
+        cells: &[[u32; 4]],
+        request: Request,
+        scales: &Scales<Tensor<3>>,
+        (w, d, m): Out<'_, Self>,
+    ) -> [bool; LANES] {
         if dim != 3 {
             return [false; LANES];
         }
-        tets_precise_at_once(points, cells, request, Outputs { w, d, m })
+        tets_precise_at_once(points, cells, request, scales, Outputs { w, d, m })
     }
 
     fn dual_precise(corners: &[&[f64]], l: &LocalTet, weights: Option<&[f64; 4]>, placement: Placement) -> Option<([f64; 6], [f64; 4])> {
@@ -252,6 +360,23 @@ impl Simplex for Tri {
     type EdgeValues = [f64; 3];
     type CornerValues = [f64; 3];
     type Local = LocalTri;
+    type Tensor = Tensor<2>;
+
+    fn tensor(k: &[f64]) -> Result<Tensor<2>, CoefficientProblem> {
+        Tensor::new(k)
+    }
+
+    fn tensor_unchecked(k: &[f64]) -> Tensor<2> {
+        Tensor::factor(k)
+    }
+
+    fn tensors(k: &[[f64; 9]; LANES]) -> ([Tensor<2>; LANES], [bool; LANES]) {
+        Tensor::factor_lanes(k)
+    }
+
+    fn mapped(corners: &[&[f64]], l: &LocalTri, k: &Tensor<2>) -> (LocalTri, f64) {
+        (mapped_tri([corners[0], corners[1], corners[2]], l, k), 1.0)
+    }
 
     fn local(points: &[f64], dim: usize, cell: &[u32; 3], _: &mut [f64]) -> LocalTri {
         local_tri(corners(points, dim, cell))

@@ -17,6 +17,7 @@
 
 use super::{EDGES, OPPOSITE, WELL_SHAPED};
 use crate::element::exact::{DET_ERROR, DET_RTOL};
+use crate::element::metric::Tensor;
 
 /// Tets per batch.
 pub const LANES: usize = 8;
@@ -129,14 +130,26 @@ pub struct Frames {
     pub plain: [bool; LANES],
 }
 
-impl Frames {
-    /// The frames of the tets with corners `corners[k][axis][lane]`.
-    #[inline]
+/// The scaled edges of [`LANES`] tets in R^3, their scales, float determinants and
+/// whether each is the one-tet path's frame: what [`Frames`] are built from.
+pub struct Edges {
+    e: [V3; 3],
+    /// The scale of each frame (a power of two).
+    pub scale: Lanes,
+    /// `det[e1, e2, e3]` of the scaled edges, in `f64`.
+    pub det: Lanes,
+    /// Whether each lane's frame is the one-tet path's: its differences in range, its float
+    /// determinant trusted (well-shaped or not).
+    pub framed: [bool; LANES],
+}
+
+impl Edges {
+    /// The edges of the tets with corners `corners[k][axis][lane]`.
+    #[inline(always)]
     pub fn new(corners: &[[Lanes; 3]; 4]) -> Self {
         let p = |k: usize| V3 { x: corners[k][0], y: corners[k][1], z: corners[k][2] };
         let e = [p(1).sub(p(0)), p(2).sub(p(0)), p(3).sub(p(0))];
         // the largest difference component, in [2^-1000, 2^1000) for the plain frame
-        let abs = |v: V3| V3 { x: lanes(|i| v.x[i].abs()), y: lanes(|i| v.y[i].abs()), z: lanes(|i| v.z[i].abs()) };
         let (a0, a1, a2) = (abs(e[0]), abs(e[1]), abs(e[2]));
         let m = V3 { x: max(max(a0.x, a1.x), a2.x), y: max(max(a0.y, a1.y), a2.y), z: max(max(a0.z, a1.z), a2.z) };
         let max_abs = max(max(m.x, m.y), m.z);
@@ -145,15 +158,62 @@ impl Frames {
         let biased: [u64; LANES] = std::array::from_fn(|i| (max_abs[i].to_bits() >> 52) & 0x7ff);
         let inv = lanes(|i| f64::from_bits(2045u64.wrapping_sub(biased[i]) << 52));
         let scale = lanes(|i| f64::from_bits(biased[i].wrapping_add(1) << 52));
-        let [e1, e2, e3] = e.map(|v| v.times(inv));
-        let det = e1.dot(e2.cross(e3));
-        // the error bound of the float determinant (crate::element::exact::permanent)
-        let a = [abs(e1), abs(e2), abs(e3)];
-        let permanent = lanes(|i| {
-            a[0].x[i] * (a[1].y[i] * a[2].z[i] + a[1].z[i] * a[2].y[i])
-                + a[0].y[i] * (a[1].x[i] * a[2].z[i] + a[1].z[i] * a[2].x[i])
-                + a[0].z[i] * (a[1].x[i] * a[2].y[i] + a[1].y[i] * a[2].x[i])
-        });
+        let e = e.map(|v| v.times(inv));
+        let in_range = std::array::from_fn(|i| (TINY_DIFF..HUGE_DIFF).contains(&max_abs[i]));
+        let (det, framed) = trusted(&e, in_range);
+        Edges { e, scale, det, framed }
+    }
+
+    /// The volume of every lane ([`super::volume`]).
+    #[inline]
+    pub fn volume(&self) -> Lanes {
+        let s = self.scale;
+        lanes(|i| self.det[i].abs() / 6.0 * s[i] * s[i] * s[i])
+    }
+}
+
+/// `|v|` per component.
+#[inline(always)]
+fn abs(v: V3) -> V3 {
+    V3 { x: lanes(|i| v.x[i].abs()), y: lanes(|i| v.y[i].abs()), z: lanes(|i| v.z[i].abs()) }
+}
+
+/// The float determinant of the edges `e` and which lanes have it trusted
+/// ([`crate::element::exact::trusted`], its error bound from the permanent) among those
+/// `in_range`.
+#[inline(always)]
+fn trusted(e: &[V3; 3], in_range: [bool; LANES]) -> (Lanes, [bool; LANES]) {
+    let [e1, e2, e3] = *e;
+    let det = e1.dot(e2.cross(e3));
+    let a = [abs(e1), abs(e2), abs(e3)];
+    let permanent = lanes(|i| {
+        a[0].x[i] * (a[1].y[i] * a[2].z[i] + a[1].z[i] * a[2].y[i])
+            + a[0].y[i] * (a[1].x[i] * a[2].z[i] + a[1].z[i] * a[2].x[i])
+            + a[0].z[i] * (a[1].x[i] * a[2].y[i] + a[1].y[i] * a[2].x[i])
+    });
+    (det, std::array::from_fn(|i| in_range[i] && DET_ERROR * permanent[i] <= DET_RTOL * det[i].abs()))
+}
+
+impl Frames {
+    /// The frames of the tets with corners `corners[k][axis][lane]`.
+    #[inline]
+    pub fn new(corners: &[[Lanes; 3]; 4]) -> Self {
+        Self::of(&Edges::new(corners))
+    }
+
+    /// The frames of `edges`.
+    #[inline(always)]
+    pub fn of(edges: &Edges) -> Self {
+        Self::with(edges.e, edges.det, edges.scale, None, edges.framed)
+    }
+
+    /// The frames of edges `e` (scaled by `scale`) of determinant `det`: the quantities the
+    /// kernels share, and which lanes are plain: `framed`, and well-shaped with the
+    /// radius-ratio bound widened by `sqrt(slack)` ([`super::well_shaped_within`]; `None`:
+    /// [`super::well_shaped`]).
+    #[inline(always)]
+    fn with(e: [V3; 3], det: Lanes, scale: Lanes, slack: Option<Lanes>, framed: [bool; LANES]) -> Self {
+        let [e1, e2, e3] = e;
         let normals = [e3.sub(e1).cross(e2.sub(e1)), e2.cross(e3), e3.cross(e1), e1.cross(e2)];
         let normal2 = normals.map(|n| n.length_squared());
         let x = [V3::ZERO, e1, e2, e3];
@@ -165,13 +225,40 @@ impl Frames {
         let largest = max(max(normal2[0], normal2[1]), max(normal2[2], normal2[3]));
         let c2 = centre.length_squared();
         let plain = std::array::from_fn(|i| {
-            let in_range = (TINY_DIFF..HUGE_DIFF).contains(&max_abs[i]);
-            let trusted = DET_ERROR * permanent[i] <= DET_RTOL * det[i].abs();
             let det2 = det[i] * det[i];
-            let well_shaped = det2 >= f64::MIN_POSITIVE && 9.0 * det2 >= 16.0 * WELL_SHAPED * WELL_SHAPED * largest[i] * c2[i];
-            in_range && trusted && well_shaped
+            let bound = match slack {
+                None => 16.0 * WELL_SHAPED * WELL_SHAPED * largest[i] * c2[i],
+                Some(slack) => 16.0 * WELL_SHAPED * WELL_SHAPED * slack[i] * largest[i] * c2[i],
+            };
+            framed[i] && det2 >= f64::MIN_POSITIVE && 9.0 * det2 >= bound
         });
         Frames { x, normals, normal2, centre, scale, det, plain }
+    }
+
+    /// The frames of tets (their `edges`, corners `x(lane)`) mapped by `tensors` (one per
+    /// lane), as [`crate::element::metric::mapped_tet`] maps one tet, bit for bit: the
+    /// mapped edges ([`crate::element::metric::map_edges_lanes`]) scaled by a power of two,
+    /// their determinant from the tet's, the shape test with its slack. Lanes whose frame
+    /// is not [`Edges::framed`] are not plain.
+    #[inline(always)]
+    pub fn mapped<'p>(edges: &Edges, x: impl Fn(usize) -> [&'p [f64]; 4], tensors: &[Tensor<3>; LANES]) -> Frames {
+        let e = edges.e.map(|v| [v.x, v.y, v.z]);
+        let (y, err) = crate::element::metric::map_edges_lanes(x, e, edges.scale, tensors);
+        let mut scale = [0.0; LANES];
+        let mut det = [0.0; LANES];
+        let mut slack = [f64::INFINITY; LANES];
+        let mut in_range = [false; LANES];
+        let mut mapped = [V3::ZERO; 3];
+        for i in 0..LANES {
+            let frame = crate::element::metric::frame_of_mapped(&y[i], err[i], edges.det[i], edges.scale[i], &tensors[i]);
+            let Some((inv, s, d, q)) = frame else { continue };
+            for (v, edge) in mapped.iter_mut().enumerate() {
+                (edge.x[i], edge.y[i], edge.z[i]) = (y[i][v][0] * inv, y[i][v][1] * inv, y[i][v][2] * inv);
+            }
+            (scale[i], det[i], slack[i], in_range[i]) = (s, d, q, edges.framed[i]);
+        }
+        let (_, framed) = trusted(&mapped, in_range);
+        Self::with(mapped, det, scale, Some(slack), framed)
     }
 
     /// The primal weights and diagonal entries of every lane ([`super::primal`]),

@@ -18,8 +18,8 @@ pub use centre::{power_centres, power_centres_precise, Centres};
 pub use dual::{dual, Dual};
 pub use mass::barycentric_mass;
 pub use power::{power_dual, power_dual_precise, Field, Placement, Real};
-pub(crate) use power::{circumcentric_dual_precise_lanes, exact_tet};
-pub(crate) use primal::primal_precise_lanes;
+pub(crate) use power::{circumcentric_dual_precise_lanes, exact_tet, mapped_dual_precise};
+pub(crate) use primal::{primal_precise_in, primal_precise_lanes};
 pub use primal::{primal, primal_precise, primal_weights, Primal};
 pub use quality::{inside_circumsphere, quality_from_frame, tet_quality, tet_quality_exact, TetQuality, DELAUNAY_RTOL};
 
@@ -107,6 +107,14 @@ pub const WELL_SHAPED: f64 = 1.0 / 32.0;
 /// wide can round two edges to one). The other tets are computed by the precise path
 /// ([`power_dual_precise`], [`primal_precise`]).
 pub fn well_shaped(t: &LocalTet) -> bool {
+    well_shaped_within(t, 1.0)
+}
+
+/// [`well_shaped`] with the radius-ratio bound widened by `sqrt(slack)`, `slack >= 1`: for
+/// a frame whose edges are rounded `slack` times more coarsely than a tet's own (a tet
+/// mapped by a tensor, [`crate::element::metric::mapped_tet`]), so that its `f64` values
+/// keep the same error bound.
+pub(crate) fn well_shaped_within(t: &LocalTet, slack: f64) -> bool {
     let f = Frame::new(t);
     let [_, e1, e2, e3] = f.x;
     let rounded = e1.dot(e2.cross(e3));
@@ -118,7 +126,7 @@ pub fn well_shaped(t: &LocalTet) -> bool {
     let largest = f.normals.iter().map(|n| n.length_squared()).fold(0.0, f64::max);
     // rho >= 3 |det| / (4 |n|_max |c|) >= WELL_SHAPED, squared
     let det2 = f.det * f.det;
-    det2 >= f64::MIN_POSITIVE && 9.0 * det2 >= 16.0 * WELL_SHAPED * WELL_SHAPED * largest * c.length_squared()
+    det2 >= f64::MIN_POSITIVE && 9.0 * det2 >= 16.0 * WELL_SHAPED * WELL_SHAPED * slack * largest * c.length_squared()
 }
 
 /// Unsigned volume of the tet (`|det[x1-x0, x2-x0, x3-x0]| / 6`), in the caller's units.

@@ -42,6 +42,7 @@ use super::{Dual, Frame, EDGES, FACES, OPPOSITE};
 use crate::element::bounded::{certified, largest, Bd, BdLanes};
 use crate::element::exact::two_sum;
 use crate::element::frame::{precise_tet, LocalTet};
+use crate::element::metric::{exact_mapped_tet, precise_mapped_tet, Tensor};
 use crate::element::rational::{exactly, Exact};
 use std::cmp::Ordering;
 use std::ops::{Add, Div, Mul, Neg, Sub};
@@ -406,6 +407,36 @@ fn power_dual_exact(x: [&[f64]; 4], weights: Option<&[f64; 4]>, placement: Place
         let (w, m) = dual_of(corners, det, w, placement);
         Some(Dual { weights: w.map(Exact::to_f64), cell_volumes: m.map(Exact::to_f64) })
     })
+}
+
+/// The dual weights of the tet with corners `x` (its frame `t`) mapped by a tensor `k`
+/// into the frame `mapped` ([`crate::element::metric::mapped_tet`]), with vertex weights
+/// `weights` (in the mapped frame's squared lengths, the caller's unit) and dual vertices
+/// placed by `placement`, by the precise path of the accuracy rule: in double-double with
+/// error bounds from the mapped exact corners, else exactly; the values of the mapped tet
+/// in the caller's unit, NaN where neither serves.
+pub(crate) fn mapped_dual_precise(
+    x: [&[f64]; 4],
+    t: &LocalTet,
+    mapped: &LocalTet,
+    k: &Tensor<3>,
+    weights: Option<&[f64; 4]>,
+    placement: Placement,
+) -> [f64; 6] {
+    let certified_weights = || {
+        let (corners, det) = precise_mapped_tet(x, t, mapped, k);
+        let (w, _) = dual_of(corners, det, relative_precise(mapped.scale, weights), placement);
+        let wmax = largest(&w);
+        Some(certified(w, |_| wmax)?.map(|v| v * mapped.scale))
+    };
+    let exact_weights = || {
+        exactly(|| {
+            let (corners, det) = exact_mapped_tet(x, k)?;
+            let w = weights.map_or([Exact::from(0.0); 4], |w| w.map(|wi| Exact::from(wi) - Exact::from(w[0])));
+            Some(dual_of(corners, det, w, placement).0.map(Exact::to_f64))
+        })
+    };
+    certified_weights().or_else(exact_weights).unwrap_or([f64::NAN; 6])
 }
 
 /// The corners of a tet in R^3 relative to the first, exactly, and their determinant (six

@@ -6,6 +6,7 @@ use super::batch::{Lanes, LANES};
 use super::{Frame, EDGES};
 use crate::element::bounded::{certified, Bd, BdLanes};
 use crate::element::frame::{precise_tet, LocalTet};
+use crate::element::metric::{exact_mapped_tet, precise_mapped_tet, Tensor};
 use crate::element::rational::{exactly, Exact};
 
 /// One tet's contributions to the primal Laplacian.
@@ -74,7 +75,16 @@ pub(crate) fn primal_of<R: Field>(p: [V3<R>; 4], det: R, scale: R) -> ([R; 6], [
 /// arithmetic (tets in R^3). Values beyond the `f64` range are infinite; NaN for an
 /// immersed tet (d > 3) that double-double cannot serve.
 pub fn primal_precise(x: [&[f64]; 4], t: &LocalTet) -> Primal {
-    primal_certified(x, t).or_else(|| primal_exact(x)).unwrap_or(Primal { weights: [f64::NAN; 6], diagonal: [f64::NAN; 4] })
+    primal_precise_in(x, t, None)
+}
+
+/// [`primal_precise`] of the tet, or of the tet mapped by a tensor `map = (mapped, k)`
+/// (`mapped` its frame, [`crate::element::metric::mapped_tet`]): the values of the mapped
+/// tet in its frame's unit, the same steps on its mapped exact corners.
+pub(crate) fn primal_precise_in(x: [&[f64]; 4], t: &LocalTet, map: Option<(&LocalTet, &Tensor<3>)>) -> Primal {
+    primal_certified(x, t, map)
+        .or_else(|| primal_exact(x, map.map(|(_, k)| k)))
+        .unwrap_or(Primal { weights: [f64::NAN; 6], diagonal: [f64::NAN; 4] })
 }
 
 /// The weights and diagonal entries if their bounds certify them (see [`primal_precise`]).
@@ -85,17 +95,23 @@ fn certify_primal(w: [Bd; 6], d: [Bd; 4]) -> Option<Primal> {
 }
 
 /// [`primal_precise`]'s double-double step.
-fn primal_certified(x: [&[f64]; 4], t: &LocalTet) -> Option<Primal> {
-    let (p, det) = precise_tet(x, t.scale);
-    let (w, d) = primal_of(p, det, Bd::from(t.scale));
+fn primal_certified(x: [&[f64]; 4], t: &LocalTet, map: Option<(&LocalTet, &Tensor<3>)>) -> Option<Primal> {
+    let ((p, det), scale) = match map {
+        None => (precise_tet(x, t.scale), t.scale),
+        Some((mapped, k)) => (precise_mapped_tet(x, t, mapped, k), mapped.scale),
+    };
+    let (w, d) = primal_of(p, det, Bd::from(scale));
     certify_primal(w, d)
 }
 
 /// [`primal_precise`]'s last step, exactly from the input coordinates (`None` for an
 /// immersed tet).
-fn primal_exact(x: [&[f64]; 4]) -> Option<Primal> {
+fn primal_exact(x: [&[f64]; 4], map: Option<&Tensor<3>>) -> Option<Primal> {
     exactly(|| {
-        let (p, det) = exact_tet(x)?;
+        let (p, det) = match map {
+            None => exact_tet(x)?,
+            Some(k) => exact_mapped_tet(x, k)?,
+        };
         let (w, d) = primal_of(p, det, Exact::from(1.0));
         Some(Primal { weights: w.map(Exact::to_f64), diagonal: d.map(Exact::to_f64) })
     })
