@@ -337,11 +337,12 @@ def test_weights_are_validated(ball):
         tetlap.laplacian(V, T, "dual", boundary_centres="voronoi")
 
 
-def test_primal_ignores_the_boundary_treatment_and_refuses_weights(ball):
+def test_primal_refuses_the_boundary_treatment_and_weights(ball):
+    """The primal has no dual centres: a boundary treatment or weights given with it would
+    be ignored silently, so both are refused."""
     V, T = ball
-    P = tetlap.laplacian(V, T, "primal")
-    Q = tetlap.laplacian(V, T, "primal", boundary_centres="barycentric")
-    assert (P != Q).nnz == 0
+    with pytest.raises(tetlap.OptionError, match="would ignore it"):
+        tetlap.laplacian(V, T, "primal", boundary_centres="barycentric")
     with pytest.raises(tetlap.OptionError, match="belong to the dual"):   # issue 37: ignored
         tetlap.laplacian(V, T, "primal", weights=np.ones(len(V)))
 
@@ -398,8 +399,8 @@ def test_mesh_with_weights_and_boundary_matches_one_shot(ball, rng):
 
 def test_weights_are_refused_wherever_nothing_uses_them(ball):
     """Issue 37.10: ``weights=`` with the primal was ignored silently (and with the
-    barycentric, mixed and FEM masses, which do not depend on them either). Every function
-    that takes ``weights=`` refuses them, naming the keyword and that they belong to the
+    barycentric, mixed and FEM masses, which do not depend on them either), and so was
+    ``boundary_centres="barycentric"``. Every function that takes them refuses them, naming the keyword and that they belong to the
     dual, where the result would not depend on them; where a part uses them, they are
     used (and change the result)."""
     V, T = ball
@@ -433,6 +434,13 @@ def test_weights_are_refused_wherever_nothing_uses_them(ball):
         with pytest.raises(tetlap.OptionError, match="weights") as e:
             call(weights=w)
         assert "dual" in str(e.value), name
+        if name == "check":                                      # takes no boundary_centres
+            continue
+        # the barycentric boundary centres move the same centres: refused by the same rule
+        with pytest.raises(tetlap.OptionError, match='boundary_centres="barycentric"') as e:
+            call(boundary_centres="barycentric")
+        assert "would ignore it" in str(e.value), name
+        call(boundary_centres="circumcentric")                   # the default passes
     used = {
         "laplacian dual": lambda **k: tetlap.laplacian(V, T, "dual", **k),
         "laplacian t = 0.5": lambda **k: tetlap.laplacian(V, T, 0.5, **k),
@@ -444,4 +452,8 @@ def test_weights_are_refused_wherever_nothing_uses_them(ball):
     }
     for name, call in used.items():
         a, b = call(), call(weights=w)
+        assert (abs(a - b).max() if hasattr(a, "nnz") else abs(a - b)) > 0, name
+        if name == "dirichlet_energy dual":                      # not differentiated
+            continue
+        a, b = call(), call(boundary_centres="barycentric")
         assert (abs(a - b).max() if hasattr(a, "nnz") else abs(a - b)) > 0, name

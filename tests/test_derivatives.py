@@ -341,9 +341,12 @@ def test_errors():
         tetlap.dirichlet_energy(V, T, f, "dual", boundary_centres="barycentric")
     with pytest.raises(tetlap.OptionError, match="barycentric"):
         tetlap.mass_energy(V, T, f, "circumcentric", boundary_centres="barycentric")
-    # the primal and the barycentric mass do not use the boundary treatment
-    tetlap.dirichlet_energy(V, T, f, "primal", boundary_centres="barycentric")
-    tetlap.mass_energy(V, T, f, "barycentric", boundary_centres="barycentric")
+    # the primal and the barycentric mass do not use the boundary treatment: refused, as
+    # the operators refuse it
+    with pytest.raises(tetlap.OptionError, match="would ignore it"):
+        tetlap.dirichlet_energy(V, T, f, "primal", boundary_centres="barycentric")
+    with pytest.raises(tetlap.OptionError, match="would ignore it"):
+        tetlap.mass_energy(V, T, f, "barycentric", boundary_centres="barycentric")
     with pytest.raises(tetlap.OptionError):
         tetlap.dirichlet_energy(V, T, f, "cotan")
     with pytest.raises(tetlap.OptionError):

@@ -131,6 +131,10 @@ def test_mesh_of_a_mesh_object_and_options_apply_to_every_operator():
     V, T = tetlap.meshes.ball(300, seed=4)
     mesh = tetlap.Mesh(meshio.Mesh(V, [("tetra", T)]), boundary_centres="barycentric", threads=2)
     for kind in KINDS:
+        if kind == "primal":                    # no dual centres: refused as ignored
+            with pytest.raises(tetlap.OptionError, match="would ignore it"):
+                mesh.laplacian(kind)
+            continue
         expected = tetlap.laplacian(V, T, kind, boundary_centres="barycentric")
         assert_bitwise(([mesh.laplacian(kind)], []), ([expected], []))
     assert (mesh.mass("circumcentric") != tetlap.mass(V, T, "circumcentric",

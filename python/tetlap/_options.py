@@ -130,6 +130,22 @@ def at_least(value, least, name: str):
 UNWEIGHTED_KINDS = ("primal", "barycentric", "mixed", "fem")
 
 
+def _centre_free(kinds) -> tuple[list, bool]:
+    """The kinds asked for (None: a part not asked) and whether none of them depends on the
+    dual's centres (the primal, the barycentric, mixed and fem masses, t = 0). A kind this
+    rule does not know counts as depending (the core names a bad kind)."""
+    asked = [k for k in kinds if k is not None]
+    plain = [k for k in asked if (isinstance(k, str) and k in UNWEIGHTED_KINDS)
+             or (_real(k) and k == 0)]
+    return asked, bool(asked) and len(plain) == len(asked)
+
+
+def _ignored(asked: list, them: str) -> str:
+    what = " and ".join(repr(k) for k in asked)
+    return (f"{what} {'does' if len(asked) == 1 else 'do'} not depend on {them} and would "
+            f"ignore {them}: drop {them}, or ask for \"dual\" or \"circumcentric\"")
+
+
 def weights_used(given: bool, kinds, name: str = "weights") -> None:
     """Refuse vertex weights (``given``) for a request none of whose ``kinds`` (the
     Laplacian and mass kinds asked for; None for a part not asked) depends on them: the
@@ -142,17 +158,32 @@ def weights_used(given: bool, kinds, name: str = "weights") -> None:
     ...
     tetlap.errors.OptionError: weights: vertex weights belong to the dual ...
     """
-    asked = [k for k in kinds if k is not None]
-    plain = [k for k in asked if (isinstance(k, str) and k in UNWEIGHTED_KINDS)
-             or (_real(k) and k == 0)]
-    if given and asked and len(plain) == len(asked):
-        what = " and ".join(repr(k) for k in asked)
+    asked, unused = _centre_free(kinds)
+    if given and unused:
         raise OptionError(
             f"{name}: vertex weights belong to the dual (they move its centres to power "
             f'centres, which the dual Laplacian, "dual" or an affine t > 0, and the '
-            f"circumcentric mass use); {what} {'does' if len(asked) == 1 else 'do'} not "
-            f'depend on them and would ignore them: drop them, or ask for "dual" or '
-            f'"circumcentric"')
+            f"circumcentric mass use); {_ignored(asked, 'them')}")
+
+
+def centres_used(boundary_centres, kinds, where: str = "") -> None:
+    """Refuse ``boundary_centres="barycentric"`` for a request none of whose ``kinds``
+    depends on the dual's centres, by the rule of :func:`weights_used` (the same kinds use
+    both): the result would ignore it silently. ``where`` follows the keyword in the
+    message (" (of this Mesh)").
+
+    >>> centres_used("barycentric", ("dual", None))
+    >>> centres_used("barycentric", ("primal", "fem"))
+    Traceback (most recent call last):
+    ...
+    tetlap.errors.OptionError: boundary_centres="barycentric" moves the dual's centres ...
+    """
+    asked, unused = _centre_free(kinds)
+    if boundary_centres == "barycentric" and unused:
+        raise OptionError(
+            f'boundary_centres="barycentric"{where} moves the dual\'s centres in tets with a '
+            f'boundary face (which the dual Laplacian, "dual" or an affine t > 0, and the circumcentric '
+            f"mass use); {_ignored(asked, 'it')}")
 
 
 def renamed(**old_to_new: str):

@@ -13,7 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
-from ._options import weights_used
+from ._options import centres_used, weights_used
 from . import coefficient as _coefficient
 from ._docs import shared_docs
 from ._options import renamed
@@ -45,7 +45,9 @@ def _assemble(what: tuple, V, T, weights, boundary, degenerate, threads, coeffic
     V = _arrays.points(V)
     T = _arrays.elements(T)
     w = _arrays.vertex_weights(weights, V.shape[0])
-    weights_used(w is not None and T.shape[1] == 4, what[1:])  # triangles: the core refuses
+    if T.shape[1] == 4:  # triangles: the core refuses both
+        weights_used(w is not None, what[1:])
+        centres_used(boundary, what[1:])
     K = _coefficient._argument(coefficient, (V.shape, T.shape))
     rho = _coefficient._argument(density, (V.shape, T.shape), density=True)
     options = _options(boundary, degenerate, threads)

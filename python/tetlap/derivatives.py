@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
-from ._options import weights_used
+from ._options import centres_used, weights_used
 from .assembly import _options
 from ._docs import shared_docs
 from ._options import renamed
@@ -111,14 +111,16 @@ def _mass_cotangent(dM, n: int):
     return ("diagonal", d)
 
 
-def _mesh(V, T, weights, kinds):
+def _mesh(V, T, weights, kinds, boundary_centres=None):
     """Validated ``(V, T, weights)``; weights refused where none of the differentiated
-    ``kinds`` (None: not differentiated) depends on them."""
+    ``kinds`` (None: not differentiated) depends on them, and so is
+    ``boundary_centres="barycentric"``."""
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
     w = _arrays.vertex_weights(weights, V.shape[0])
     weights_used(w is not None, kinds)
+    centres_used(boundary_centres, kinds)
     return V, T, w
 
 
@@ -192,7 +194,8 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     >>> bool(np.allclose(g.dV.sum(axis=0), 0))  # moving the tet rigidly changes nothing
     True
     """
-    V, T, w = _mesh(V, T, weights, (None if dL is None else kind, None if dM is None else mass))
+    V, T, w = _mesh(V, T, weights, (None if dL is None else kind, None if dM is None else mass),
+                    boundary_centres)
     n, m = V.shape[0], T.shape[0]
     dl = _laplacian_cotangent(dL, n, m)
     dm = _mass_cotangent(dM, n)
@@ -213,7 +216,7 @@ def _columns(f, n: int) -> np.ndarray:
 
 
 def _energy(V, T, f, lap, mass, weights, boundary, degenerate, threads, return_weights_gradient):
-    V, T, w = _mesh(V, T, weights, (lap, mass))
+    V, T, w = _mesh(V, T, weights, (lap, mass), boundary)
     F = _columns(f, V.shape[0])
     terms = {"laplacian": lap, "mass": mass}
     dV, dweights, value = _core.vjp(

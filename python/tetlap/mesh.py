@@ -8,7 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
-from ._options import renamed, weights_used
+from ._options import centres_used, renamed, weights_used
 from . import coefficient as _coefficient
 from .assembly import _options
 from .errors import ShapeError
@@ -95,6 +95,7 @@ class Mesh:
         self._core = _core.Mesh(V, T, weights=w, medium=(K, rho),
                                 options=_options(boundary_centres, degenerate, threads))
         self._weighted = w is not None
+        self._centres = boundary_centres
         self._n, self._dim = V.shape
         indices, indptr = self._core.pattern()
         pattern = _sparse.csr((np.empty(len(indices)), indices, indptr), self._n)
@@ -125,6 +126,7 @@ class Mesh:
         with vertex weights refuses the primal (:class:`tetlap.OptionError`): the weights
         belong to the dual, and the primal would ignore them."""
         weights_used(self._weighted, (kind,), "weights (of this Mesh)")
+        centres_used(self._centres, (kind,), " (of this Mesh)")
         return self._laplacian(kind)
 
     def _laplacian(self, kind) -> sp.csr_array:
@@ -135,6 +137,7 @@ class Mesh:
         with vertex weights refuses the kinds that do not use them (all but
         ``"circumcentric"``), as :meth:`laplacian` refuses the primal."""
         weights_used(self._weighted, (kind,), "weights (of this Mesh)")
+        centres_used(self._centres, (kind,), " (of this Mesh)")
         return self._mass(kind)
 
     def _mass(self, kind) -> sp.csr_array:
@@ -147,6 +150,7 @@ class Mesh:
         """``(L, M)``, both cached. With vertex weights, one of them must use them (the
         dual Laplacian or the circumcentric mass), as for :func:`tetlap.operators`."""
         weights_used(self._weighted, (laplacian, mass), "weights (of this Mesh)")
+        centres_used(self._centres, (laplacian, mass), " (of this Mesh)")
         return self._laplacian(laplacian), self._mass(mass)
 
     def update(self, V=None, *, coefficient=None, density=None) -> UpdateInfo:
