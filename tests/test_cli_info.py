@@ -38,7 +38,7 @@ def test_info_json_on_the_built_in_mesh():
     assert out.returncode == 0, out.stderr
     result = strict_json(out.stdout)
     assert list(result)[:2] == ["schema_version", "source"]
-    assert result["schema_version"] == tetlap.info.SCHEMA_VERSION == 4
+    assert result["schema_version"] == tetlap.info.SCHEMA_VERSION == 5
     assert result["source"] == _mesh.BUILT_IN
     for key in ("n_vertices", "n_tets", "n_boundary_vertices", "non_delaunay_face_fraction",
                 "min_dihedral_deg"):

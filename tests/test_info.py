@@ -209,7 +209,7 @@ def assert_operator_report(V, T, kind, r, boundary):
 
 
 def assert_report(V, T, result):
-    assert list(result) == ["schema_version", "mesh", "primal", "dual", "regular"]
+    assert list(result) == ["schema_version", "mesh", "primal", "dual", "regular", "coefficient"]
     assert result["schema_version"] == info.SCHEMA_VERSION
     json.dumps(result, allow_nan=False)  # JSON-ready, every float finite
     reg = result["regular"]

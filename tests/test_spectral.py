@@ -112,3 +112,69 @@ def test_bad_input_is_named():
         spectral.eigenvalue_vjp(V, T, lam, vec, [1.0, np.nan, 0.0])
     with pytest.raises(tetlap.OptionError):
         spectral.eigenvalue_gradients(V, T, lam, vec, mass="mixed")
+
+
+# ---- with respect to the coefficient -----------------------------------------------------
+
+
+def _eigs_with(V, T, kind, coefficient, fixed, k):
+    L, M = tetlap.operators(V, T, kind, "barycentric", coefficient=coefficient)
+    return tetlap.solve.eigs(L, M, k, fixed)
+
+
+@pytest.mark.parametrize("kind", ["primal", "dual", 0.5])
+def test_coefficient_gradients_match_central_differences(kind):
+    """d lambda / dc against central differences of eigs along a random direction, for
+    per-tet scalars in both constructions; a cluster's members get its mean's."""
+    V, T = tetlap.meshes.ball(500, seed=11)
+    rng = np.random.default_rng(11)
+    c = rng.uniform(0.5, 2.0, len(T))
+    fixed = d.boundary_vertices(T, len(V))
+    lam, vec = _eigs_with(V, T, kind, c, fixed, 6)
+    G = tetlap.spectral.coefficient_gradients(V, T, lam, vec, kind)
+    assert G.shape == (6, len(T))
+    delta = rng.uniform(-1, 1, len(T)) * c
+    h = 1e-5
+    up = _eigs_with(V, T, kind, c + h * delta, fixed, 6)[0]
+    down = _eigs_with(V, T, kind, c - h * delta, fixed, 6)[0]
+    groups = tetlap.spectral.clusters(lam)
+    fd = (up - down) / (2 * h)
+    fd_mean = (np.bincount(groups, fd) / np.bincount(groups))[groups]
+    np.testing.assert_allclose(G @ delta, fd_mean, rtol=1e-6, atol=1e-8 * lam.max())
+    # Euler: the eigenvalues are homogeneous of degree 1 in the coefficient
+    np.testing.assert_allclose(G @ c, lam, rtol=1e-9)
+
+
+def test_coefficient_gradients_of_tensors_match_central_differences():
+    V, T = tetlap.meshes.ball(400, seed=12)
+    rng = np.random.default_rng(12)
+    A = rng.normal(size=(len(T), 3, 3))
+    K = np.einsum("mij,mkj->mik", A, A) + np.eye(3)
+    fixed = d.boundary_vertices(T, len(V))
+    lam, vec = _eigs_with(V, T, "primal", K, fixed, 5)
+    G = tetlap.spectral.coefficient_gradients(V, T, lam, vec, tensor=True)
+    assert G.shape == (5, len(T), 3, 3)
+    assert np.allclose(G, G.swapaxes(-1, -2))
+    assert (np.linalg.eigvalsh(G) > -1e-12 * np.abs(G).max()).all()   # PSD per tet
+    D = rng.normal(size=(len(T), 3, 3))
+    D = (D + D.swapaxes(-1, -2)) / 2
+    h = 1e-4
+    up = _eigs_with(V, T, "primal", K + h * D, fixed, 5)[0]
+    down = _eigs_with(V, T, "primal", K - h * D, fixed, 5)[0]
+    groups = tetlap.spectral.clusters(lam)
+    fd = (up - down) / (2 * h)
+    fd_mean = (np.bincount(groups, fd) / np.bincount(groups))[groups]
+    np.testing.assert_allclose(np.einsum("kmij,mij->k", G, D), fd_mean, rtol=1e-6)
+    np.testing.assert_allclose(np.einsum("kmij,mij->k", G, K), lam, rtol=1e-9)
+
+
+def test_coefficient_gradients_refuse_what_they_cannot_differentiate():
+    V, T = tetlap.meshes.ball(300, seed=13)
+    L, M = tetlap.operators(V, T, "dual", "barycentric")
+    lam, vec = tetlap.solve.eigs(L, M, 3, d.boundary_vertices(T, len(V)))
+    with pytest.raises(tetlap.OptionError, match="primal only"):
+        tetlap.spectral.coefficient_gradients(V, T, lam, vec, "dual", tensor=True)
+    with pytest.raises(tetlap.OptionError, match="tensor must be True or False"):
+        tetlap.spectral.coefficient_gradients(V, T, lam, vec, "dual", tensor=1)
+    with pytest.raises(tetlap.ShapeError):
+        tetlap.spectral.coefficient_gradients(V, T, lam, vec[:, :2], "dual")

@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _options, _sparse, assembly, diagnostics
+from . import coefficient as _coefficient
 from ._blas import one_blas_thread
 from .dual import dual_geometry
 from ._interrupt import eigvalsh, splu
@@ -58,6 +59,17 @@ class Report:
     Vertices in no tet take no part: the eigenvalue is that of ``-L`` without their empty
     rows, ``mass_min`` and ``mass_nonpositive`` are over the vertices in tets, and the
     linear-precision residual is relative to the diameter of those.
+
+    With ``check(..., coefficient=K)``: ``coefficient`` is ``"constant"`` (one value on
+    every tet: linear precision is checked, linear functions solve ``div(K grad u) = 0``)
+    or ``"varying"`` (linear precision is None, with the reason in ``notes``), and the
+    mesh's properties in the metric ``K^-1`` are counted: ``n_obtuse_tets_metric``, the
+    tets with a dihedral angle above 90 degrees in their metric (the primal's maximum
+    principle needs none; ``obtuse_tets_metric`` names the worst ten), and
+    ``n_non_delaunay_faces_metric``, the interior faces not locally Delaunay in the metric
+    of their two tets (the dual's; ``non_delaunay_faces_metric`` the worst ten as their
+    two tets ``[s, t]``); see :func:`check`. Without a coefficient those are None (and
+    ``[]``). Points not in R^3 give None as well.
     """
 
     n_vertices: int
@@ -85,6 +97,11 @@ class Report:
     mass_nonpositive: int | None = None
     mass_total: float | None = None
     mesh_volume: float | None = None
+    coefficient: str | None = None
+    n_obtuse_tets_metric: int | None = None
+    obtuse_tets_metric: list[int] = dataclasses.field(default_factory=list)
+    n_non_delaunay_faces_metric: int | None = None
+    non_delaunay_faces_metric: list[list[int]] = dataclasses.field(default_factory=list)
     notes: list[str] = dataclasses.field(default_factory=list)
 
     def to_dict(self) -> dict:
@@ -121,6 +138,16 @@ class Report:
              f"{self.n_negative_interior}/{self.n_edges_interior} negative "
              f"({100 * self.negative_fraction_interior:.2f}%)"),
         ]
+        if self.n_obtuse_tets_metric is not None:
+            rows.append(("non-obtuse in the metric (tets)", self.n_obtuse_tets_metric == 0,
+                         f"{self.n_obtuse_tets_metric}/{self.n_tets} obtuse"
+                         + _worst(self.obtuse_tets_metric, self.n_obtuse_tets_metric)))
+        if self.n_non_delaunay_faces_metric is not None:
+            rows.append(("Delaunay in the metric (interior faces)",
+                         self.n_non_delaunay_faces_metric == 0,
+                         f"{self.n_non_delaunay_faces_metric} not locally Delaunay"
+                         + _worst([f"{s}|{t}" for s, t in self.non_delaunay_faces_metric],
+                                  self.n_non_delaunay_faces_metric)))
         if self.mass_total is not None:
             rows.append(("positive mass", self.mass_nonpositive == 0,
                          f"min {self.mass_min:.3e}, {self.mass_nonpositive} <= 0"))
@@ -143,9 +170,16 @@ def _fmt(value, template: str) -> str:
     return "" if value is None else template.format(value)
 
 
+def _worst(listed: list, count: int) -> str:
+    """``, worst: a, b, ...`` of a row of listed elements (nothing when there are none)."""
+    if not count:
+        return ""
+    return ", worst: " + ", ".join(map(str, listed)) + (", ..." if count > len(listed) else "")
+
+
 @_arrays.takes_mesh_object
 def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL,
-          nsd: bool = True, weights=None) -> Report:
+          nsd: bool = True, weights=None, coefficient=None) -> Report:
     """Check a Laplacian ``L`` (and mass ``M``) of the mesh ``(V, T)`` against Table 1.
 
     Parameters
@@ -179,6 +213,11 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     weights : (n,) array-like of real numbers, optional
         With ``kind="cell"``: the vertex weights ``L`` was built with (its centres are
         then power centres). Not used by the other kinds.
+    coefficient : array-like of real numbers, optional
+        The coefficient ``L`` was built with (``laplacian(V, T, kind, coefficient=K)``):
+        ``(m,)`` positive scalars, ``(m, 3, 3)`` SPD tensors or one ``(3, 3)`` tensor,
+        validated as every function validates it (:func:`tetlap.coefficient.check`).
+        Table 1 in the metric ``K^-1``: see Notes. Not with ``kind="cell"``.
 
     Returns
     -------
@@ -224,6 +263,22 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     dense eigenvalues (of ``-L``, whose smallest is reported, and of the scaled matrix,
     which decide). Otherwise ``nsd`` is None and ``nsd_method`` says why.
 
+    With ``coefficient=K`` every row reads ``L`` as an operator of ``div(K grad u)``:
+    symmetry, zero row sums, locality and the sign of the weights as above; the element
+    certificate compares ``L`` with the operators built with ``K`` (each tet's
+    contribution in its metric is ``sqrt(det K_t)`` times the contribution of the tet
+    mapped by ``K_t^-1/2``, positive semidefinite as that one is); linear precision only
+    where ``K`` is one value on every tet (a ``(3, 3)`` tensor, or equal rows): then
+    linear functions are ``K``-harmonic and the residual test holds; where ``K`` varies
+    between tets the row is "n/a", with that reason in ``notes``. Per tet and face
+    (points in R^3): a tet is obtuse in the metric when its primal contribution with
+    ``K`` has a weight below ``-negative_tol`` times its largest ``|weight|`` (the
+    cotangent of a dihedral angle above 90 degrees of the mapped tet, as
+    :func:`tetlap.diagnostics.dihedral_angles` gives them with ``coefficient=K``); an
+    interior face is not locally Delaunay in the metric by
+    :func:`tetlap.diagnostics.non_delaunay_faces` with ``coefficient=K``, each tet
+    contributing in its own metric. A scalar coefficient changes neither count.
+
     Examples
     --------
     >>> import tetlap
@@ -231,6 +286,12 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
     >>> r = tetlap.check(tetlap.laplacian(V, T, "dual"), V, T)
     >>> r.nsd, r.n_negative_interior > 0
     (False, True)
+    >>> import numpy as np
+    >>> V, T = tetlap.meshes.cube(3)
+    >>> K = np.array([[1.0, 0.5, 0.0], [0.5, 1.0, 0.5], [0.0, 0.5, 1.0]])
+    >>> r = tetlap.check(tetlap.laplacian(V, T, coefficient=K), V, T, coefficient=K)
+    >>> r.nsd, r.linear_precision_ok, r.n_obtuse_tets_metric > 0
+    (True, True, True)
     """
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
@@ -241,13 +302,17 @@ def check(L, V, T=None, M=None, *, kind=None, negative_tol: float = NEGATIVE_TOL
                           f'got {kind!r}')
     _options.tolerance(negative_tol, "negative_tol")
     nsd = _options.flag(nsd, "nsd")
+    K = None if coefficient is None else _coefficient.check(coefficient, V, T)
     if kind == "cell":
+        if K is not None:
+            raise OptionError('coefficient= applies to the vertex Laplacians; with kind="cell" '
+                              "L is read as given")
         return _cell_report(L, V, T, M, weights=weights, negative_tol=negative_tol, nsd=nsd)
     if weights is not None:
         raise OptionError('weights= applies to kind="cell" only: the vertex weights of the '
                           "dual whose power centres L's cells were built with; the other "
                           "kinds read L as given")
-    return _check(L, V, T, M, kind=kind, negative_tol=negative_tol, nsd=nsd)
+    return _check(L, V, T, M, kind=kind, negative_tol=negative_tol, nsd=nsd, coefficient=K)
 
 
 def negative_weights(L, V, T, on_boundary=None) -> tuple[int, int]:
@@ -291,12 +356,13 @@ def lumped_masses(M, T, n: int) -> np.ndarray:
 
 
 def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=None,
-           assembled=False, weights=None) -> Report:
+           assembled=False, weights=None, coefficient=None) -> Report:
     """:func:`check` on validated ``V`` (float64) and ``T`` (int64), reusing what the
     caller already has: the ``boundary`` vertex mask, the ``mesh_volume``, and
     ``assembled=True`` when ``L`` is ``laplacian(V, T, kind, degenerate="skip",
-    weights=weights)`` itself (``weights``: the vertex weights of a weighted dual, for its
-    element certificate)."""
+    weights=weights, coefficient=coefficient)`` itself (``weights``: the vertex weights of a
+    weighted dual, for its element certificate); ``coefficient`` validated
+    (:func:`tetlap.coefficient.check`) or None."""
     n = V.shape[0]
     # a NaN or Inf is reported, not refused; the stiffness sign (-L) is refused: its every
     # sign-dependent row would answer for the negated operator
@@ -307,7 +373,12 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
     notes: list[str] = []
     scale = c["scale"] if c["scale"] > 0 else 1.0
     lp = c["linear_precision"]
-    if V.shape[1] != 3:
+    varying = coefficient is not None and not _constant(coefficient)
+    if varying:
+        lp = None
+        notes.append("linear precision: not applicable: the coefficient varies between "
+                     "elements: linear functions are not solutions")
+    elif V.shape[1] != 3:
         notes.append("linear precision: not applicable to an immersed (d > 3) mesh")
     elif lp is None:
         notes.append("linear precision: the mesh has no interior vertices")
@@ -323,7 +394,7 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
     if nsd and not c["finite"]:
         method = "skipped (not finite)"
     elif nsd:
-        nsd_ok, min_eig, method = _nsd(L, V, T, scale, kind, assembled, weights)
+        nsd_ok, min_eig, method = _nsd(L, V, T, scale, kind, assembled, weights, coefficient)
 
     edges, inner = c["n_edges"], c["n_edges_inner"]
     report = Report(
@@ -350,6 +421,10 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
         negative_tol=negative_tol,
         notes=notes,
     )
+    if coefficient is not None:
+        report.coefficient = "varying" if varying else "constant"
+        if V.shape[1] == 3:
+            _in_metric(report, V, T, coefficient, negative_tol)
     if M is not None:
         M = _arrays.matrix(M, n, "M")
         lumped = lumped_masses(M, T, n)
@@ -359,6 +434,36 @@ def _check(L, V, T, M, *, kind, negative_tol, nsd, boundary=None, mesh_volume=No
         report.mesh_volume = (float(np.abs(diagnostics.signed_volumes(V, T)).sum())
                               if mesh_volume is None else mesh_volume)
     return report
+
+
+def _constant(K: np.ndarray) -> bool:
+    """A validated coefficient is one value on every element: one ``(3, 3)`` tensor, or all
+    rows equal (exactly)."""
+    return K.ndim == 2 or bool((K == K[:1]).all())
+
+
+def _in_metric(report: Report, V, T, K: np.ndarray, negative_tol: float) -> None:
+    """The per-tet and per-face rows in the metric of the validated coefficient ``K``
+    (points in R^3): the tets obtuse in their metric (a primal contribution with ``K``
+    below ``-negative_tol`` times the tet's largest ``|weight|``, the worst first: the most
+    negative relative weight) and the interior faces not locally Delaunay in the metric
+    (:func:`tetlap.diagnostics.non_delaunay_faces`, the worst first: the most negative
+    relative face weight)."""
+    W = assembly._element_laplacians(V, T, "primal", coefficient=K)[:, :6]
+    size = np.abs(W).max(axis=1)
+    relative = np.divide(W.min(axis=1), size, out=np.zeros(len(W)), where=size > 0)
+    obtuse = np.flatnonzero(relative < -negative_tol)
+    obtuse = obtuse[np.argsort(relative[obtuse], kind="stable")]
+    report.n_obtuse_tets_metric = len(obtuse)
+    report.obtuse_tets_metric = [int(t) for t in obtuse[:diagnostics.LISTED]]
+    interior = _core.faces(T, len(V))[1]
+    tensors = K if K.ndim > 1 else np.eye(3)          # a scalar changes no face's answer
+    flags, margin = diagnostics._delaunay_in_metric(
+        V, T, np.broadcast_to(tensors, (len(T), 3, 3)), interior)
+    bad = np.flatnonzero(flags)
+    bad = bad[np.argsort(margin[bad], kind="stable")]
+    report.n_non_delaunay_faces_metric = len(bad)
+    report.non_delaunay_faces_metric = interior[bad[:diagnostics.LISTED]][:, [0, 2]].tolist()
 
 
 #: Largest n for the last NSD step, the inertia of a sparse LDL^T factorisation.
@@ -415,7 +520,8 @@ def _dense(S: sp.csr_array, diagonal: np.ndarray):
     return verdict, lam
 
 
-def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights=None):
+def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights=None,
+         coefficient=None):
     """(is NSD, smallest eigenvalue of -L or a witness' Rayleigh quotient, method): the
     cheapest answer first (see :func:`check`, Notes); ``weights`` those of a weighted dual
     (``kind="dual"``, ``assembled=True``). A matrix whose largest entry is beyond
@@ -426,20 +532,21 @@ def _nsd(L: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights=Non
     S.sort_indices()
     largest = float(abs(S).max()) if S.nnz else 0.0
     if largest == 0 or 2.0**-900 <= largest <= 2.0**900 or not np.isfinite(largest):
-        return _nsd_of(S, V, T, scale, kind, assembled, weights)
+        return _nsd_of(S, V, T, scale, kind, assembled, weights, coefficient)
     shift = -int(np.frexp(largest)[1])
     S = sp.csr_array((np.ldexp(S.data, shift), S.indices, S.indptr), shape=S.shape)
-    verdict, lam, method = _nsd_of(S, V, T, scale, kind, assembled, weights)
+    verdict, lam, method = _nsd_of(S, V, T, scale, kind, assembled, weights, coefficient)
     return (verdict, None if lam is None else float(np.ldexp(lam, -shift)),
             f"{method} (on L x 2^{shift}, exact)")
 
 
-def _nsd_of(S: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights):
+def _nsd_of(S: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights,
+            coefficient=None):
     """:func:`_nsd` of the symmetric part ``S`` (sorted indices)."""
     n = S.shape[0]
     diagonal = np.abs(S.diagonal())
     tol = NSD_RTOL * diagonal
-    answer = _element_certificate(S, V, T, scale, tol, kind, assembled, weights)
+    answer = _element_certificate(S, V, T, scale, tol, kind, assembled, weights, coefficient)
     if answer is not None:
         return answer
     verdict, name, details = _core.negative_semidefinite(n, _sparse.arrays(S), tol)
@@ -479,7 +586,7 @@ def _nsd_of(S: sp.csr_array, V, T, scale: float, kind, assembled: bool, weights)
 
 
 def _element_certificate(S, V, T, scale: float, tol: np.ndarray, kind, assembled: bool,
-                         weights=None):
+                         weights=None, coefficient=None):
     """The NSD answer from the per-tet matrices, if ``S`` (the symmetric part of ``L``) is
     the mesh's operator ``kind`` (the primal, then the dual, when ``kind`` is None):
     ``-S = sum_t K_t + E`` with ``|x^T E x| <= sum_i gap_i x_i^2``; every ``K_t`` is
@@ -487,24 +594,28 @@ def _element_certificate(S, V, T, scale: float, tol: np.ndarray, kind, assembled
     (:func:`tetlap._core.element_certificate`). None when ``S`` is none of them, a gap
     exceeds its vertex's tolerance or a group could not be certified. ``assembled``: ``L``
     is that operator (gaps zero), with the vertex ``weights`` of a weighted dual if
-    given."""
+    given; every candidate is built with the validated ``coefficient`` if given (each
+    tet's matrix in its metric is positive semidefinite as the plain one is)."""
     n = V.shape[0]
     if kind == "cell":  # a cell operator is no sum of per-tet matrices on the vertices
         return None
     for candidate in ("primal", "dual") if kind is None else (kind,):
         gaps = (np.zeros(n) if assembled
-                else _row_gaps(S, assembly.laplacian(V, T, candidate, degenerate="skip")))
+                else _row_gaps(S, assembly.laplacian(V, T, candidate, degenerate="skip",
+                                                     coefficient=coefficient)))
         gap = float(gaps.max())
         if gap > 1e-12 * scale:
             continue
         if (gaps > tol).any():
             return None
-        W = assembly._element_laplacians(V, T, candidate, weights if assembled else None)
+        W = assembly._element_laplacians(V, T, candidate, weights if assembled else None,
+                                         coefficient)
         verdict, _, details = _core.element_certificate(T, n, W, tol - gaps)
         if not verdict:
             return None
         name = candidate if isinstance(candidate, str) else f"t = {candidate:g} affine"
         name = f"weighted {name}" if weights is not None and assembled else name
+        name += " (with the coefficient)" if coefficient is not None else ""
         groups = details["groups"]
         covered = (f", except in {groups} groups of <= {details['largest']} neighbouring tets "
                    "whose sums are positive semidefinite" if groups else "")

@@ -292,24 +292,28 @@ def element_contributions(V, T=None, kind="primal", *, boundary_centres="circumc
                      coefficient)[0]
 
 
-def _operators_skipping(V, T, laplacian, mass):
+def _operators_skipping(V, T, laplacian, mass, coefficient=None):
     """``(L, M, skipped)``: :func:`operators` with ``degenerate="skip"`` and the (k, 2)
     int64 array of the tets it left out, ascending: ``[t, 0]`` for a flat tet, ``[t, 1]``
-    for one whose values leave the float64 range. ``V``, ``T`` validated."""
+    for one whose values leave the float64 range. ``V``, ``T`` validated, ``coefficient``
+    as the core takes it (:func:`tetlap.coefficient._argument`) or None."""
     L, M, skipped = _core.assemble(V, T, ("operators_skipping", laplacian, mass),
+                                   medium=(coefficient, None),
                                    options=_options("circumcentric", "skip", None))
     n = V.shape[0]
     return _sparse.csr(L, n), _sparse.mass(M, n), skipped
 
 
-def _element_laplacians(V, T, kind, weights=None) -> np.ndarray:
+def _element_laplacians(V, T, kind, weights=None, coefficient=None) -> np.ndarray:
     """(m, 10) for tets, (m, 6) for triangles: each element's edge weights (as
     :func:`element_contributions`) then its diagonal entries ``L_aa`` at its corners, with
     ``degenerate="skip"`` (zeros for a dropped element). The primal's entries are
     ``-Vol |grad lambda_a|^2`` computed on their own, accurate where minus the sum of the
     corner's weights cancels (a needle); the dual's are minus that sum, of the weighted
-    dual with vertex ``weights`` (n,) if given. ``V``, ``T``, ``weights`` validated."""
+    dual with vertex ``weights`` (n,) if given; with the ``coefficient`` (as the core takes
+    it) if given. ``V``, ``T``, ``weights`` validated."""
     return _core.assemble(V, T, ("element_laplacians", kind), weights=weights,
+                          medium=(coefficient, None),
                           options=_options("circumcentric", "skip", None))
 
 

@@ -25,6 +25,7 @@ import numbers
 import numpy as np
 
 from . import _arrays, _core, _meshobj, _options
+from . import coefficient as _coefficient
 from ._names import public_dir
 
 __all__ = [
@@ -263,16 +264,96 @@ def _flat(dihedral: np.ndarray) -> np.ndarray:
 
 
 @_arrays.takes_mesh_object
-def dihedral_angles(V, T=None) -> np.ndarray:
+def dihedral_angles(V, T=None, *, coefficient=None) -> np.ndarray:
     """The six dihedral angles of every tet in degrees, (m, 6) float64, at the local edges
-    ``(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)``. NaN for flat tets."""
-    return _quality(V, T)[1]
+    ``(0,1), (0,2), (0,3), (1,2), (1,3), (2,3)``. NaN for flat tets.
+
+    With ``coefficient=K`` (as :func:`tetlap.laplacian` takes it: ``(m,)``, ``(m, 3, 3)``
+    or ``(3, 3)``, validated by :func:`tetlap.coefficient.check`), the angles *in the
+    metric* ``K^-1``: those of each tet mapped by its ``K_t^-1/2``, whose cotangents the
+    primal with ``K`` is made of (a tet is non-obtuse in the metric when none exceeds 90
+    degrees). A scalar per tet changes no angle; a tensor's scale does not either (each
+    ``K_t`` is scaled by a power of two before its inverse square root is taken, exactly).
+
+    >>> import numpy as np, tetlap
+    >>> V, T = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]]
+    >>> tetlap.diagnostics.dihedral_angles(V, T).round(1)
+    array([[90. , 90. , 90. , 54.7, 54.7, 54.7]])
+    >>> K = np.diag([1.0, 1.0, 4.0])   # the tet mapped by K^-1/2: z halved
+    >>> tetlap.diagnostics.dihedral_angles(V, T, coefficient=K).round(1)
+    array([[90. , 90. , 90. , 35.3, 65.9, 65.9]])
+    """
+    V, T = _geometry(V, T)
+    K = _metric(coefficient, V, T)
+    if K is None:
+        return _core.quality(V, T)[1]
+    return _core.quality(*_mapped(V, T, K))[1]
 
 
 @_arrays.takes_mesh_object
-def min_dihedral_angles(V, T=None) -> np.ndarray:
-    """Smallest dihedral angle of every tet in degrees, (m,) (NaN for flat tets)."""
-    return dihedral_angles(V, T).min(axis=1)
+def min_dihedral_angles(V, T=None, *, coefficient=None) -> np.ndarray:
+    """Smallest dihedral angle of every tet in degrees, (m,) (NaN for flat tets); in the
+    metric of ``coefficient`` as :func:`dihedral_angles`."""
+    return dihedral_angles(V, T, coefficient=coefficient).min(axis=1)
+
+
+def _metric(coefficient, V, T) -> np.ndarray | None:
+    """The coefficient's tensors, (m, 3, 3) float64 (one ``(3, 3)`` repeated), validated
+    by the one rule (:func:`tetlap.coefficient.check`); None without one or for scalars,
+    which leave every angle and every Delaunay test as they are. ``V``, ``T`` validated."""
+    if coefficient is None:
+        return None
+    K = _coefficient.check(coefficient, V, T)
+    if K.ndim == 1:
+        return None
+    return np.broadcast_to(K, (len(T), 3, 3))
+
+
+def _normalised(K: np.ndarray) -> np.ndarray:
+    """SPD tensors (m, 3, 3), each ``K_t`` scaled by an even power of two ``4^-e`` (exact)
+    to a largest entry near 1. The angles, the Delaunay test and the contributions of
+    :func:`_metric_face_weights` do not depend on a scale of ``K_t``: scaled, they are
+    computed with no overflow or underflow at any scale of ``K``."""
+    e = np.frexp(np.abs(K).max(axis=(1, 2)))[1] // 2
+    return np.ldexp(K, -2 * e[:, None, None])
+
+
+def _mapped(V: np.ndarray, T: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The tets mapped by their metrics, as a mesh of disjoint tets: points (4 m, 3), tet
+    ``t`` is ``(4t, 4t+1, 4t+2, 4t+3)`` with corner 0 at the origin (a translation, which
+    keeps the geometry of a tet far from the origin accurate) and ``x -> K_t^-1/2 x``
+    applied, ``K_t`` :func:`_normalised` (the mapped tet is then a power of two times the
+    one mapped by ``K_t^-1/2``: the same shape). Vectorized over the tets."""
+    lam, Q = np.linalg.eigh(_normalised(K))
+    roots = (Q / np.sqrt(lam)[:, None, :]) @ Q.transpose(0, 2, 1)   # K^-1/2, symmetric
+    X = V[T] - V[T[:, :1]]                                          # (m, 4, 3)
+    return np.ascontiguousarray((X @ roots).reshape(-1, 3)), np.arange(4 * len(T)).reshape(-1, 4)
+
+
+def _metric_face_weights(V: np.ndarray, T: np.ndarray, K: np.ndarray, interior: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """``(w, size)``, each (f, 2): each interior face's two contributions in the metric
+    (rows of the core's ``interior`` pairs ``[s, a, t, b]``) and their scales. For tet
+    ``s`` and its face opposite corner ``a``, ``w = sqrt(det K_s) |f'| h' / 3``, with ``h'``
+    the signed distance of the circumcentre of the mapped tet from the mapped face
+    (positive on the tet's side) and ``|f'|`` its area: the signed volume, in physical
+    space, of the pyramid on the face whose apex is the tet's circumcentre in its metric,
+    which does not depend on the scale of ``K_s`` (a scalar coefficient changes nothing).
+    ``size`` is the same with the circumradius ``R' >= |h'|`` for ``h'``: the scale of
+    the rounding of ``w``. The face is locally Delaunay in the metric when the sum of its
+    two contributions is >= 0; for one constant ``K`` that is the sign of the dual edge of
+    the mesh mapped by ``K^-1/2``, its plain Delaunay test. A flat tet contributes 0."""
+    P, C = _mapped(V, T, K)
+    flat = _flat(_core.quality(P, C)[1])        # no circumcentre: no contribution
+    P.reshape(-1, 4, 3)[flat] = np.eye(4, 3, -1)  # a unit tet in their place, then 0
+    centres, _, heights, areas = _core.dual_centres(P, C)[:4]   # (m, 5, 3), (m, 4) ...
+    radius = np.linalg.norm(centres[:, 0] - P.reshape(-1, 4, 3)[:, 0], axis=1)
+    scale = np.where(flat, 0.0, np.sqrt(np.linalg.det(_normalised(K)))) * radius
+    pyramid = scale[:, None] * areas * (heights / radius[:, None]) / 3      # (m, 4)
+    size = scale[:, None] * areas / 3
+    s, a, t, b = interior.T
+    return (np.column_stack([pyramid[s, a], pyramid[t, b]]),
+            np.column_stack([size[s, a], size[t, b]]))
 
 
 @_arrays.takes_mesh_object
@@ -283,29 +364,66 @@ def well_centered(V, T=None) -> np.ndarray:
 
 
 @_arrays.takes_mesh_object
-def non_delaunay_faces(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
+def non_delaunay_faces(V, T=None, rtol: float = DELAUNAY_RTOL, *, coefficient=None) -> np.ndarray:
     """Boolean per interior face (order of :func:`interior_faces`): the opposite vertex of
     the second tet lies strictly inside the circumsphere of the first (up to ``rtol``
     relative to the lifted determinant's Hadamard bound). In exact arithmetic the test is
-    symmetric in the two tets. R^3 only. ``rtol``: a relative tolerance in [0, 1)."""
-    _options.tolerance(rtol, "rtol")
-    V, T = _geometry(V, T)
-    interior = _core.faces(T, len(V))[1]
-    return _core.non_delaunay(V, T, interior, float(rtol))
+    symmetric in the two tets. R^3 only. ``rtol``: a relative tolerance in [0, 1).
+
+    With a tensor ``coefficient=K`` (as :func:`tetlap.laplacian` takes it), the faces that
+    are not locally Delaunay *in the metric* ``K^-1``, each tet in its own: the face's
+    weight, the sum of its two tets' contributions (each the signed volume of the pyramid
+    on the face whose apex is the tet's circumcentre in its metric, that is of the tet
+    mapped by ``K_t^-1/2``, pulled back), is below ``-rtol`` times the sum of their
+    scales (the same volumes with each circumradius in the metric for the centre's
+    distance from the face, so that cospherical points are not flagged). For one constant ``K`` this is the Delaunay test of the mesh mapped
+    by ``K^-1/2``; the dual in the metric needs it as the plain dual needs a Delaunay
+    mesh. A scalar coefficient changes no face's answer (the plain test is returned).
+
+    >>> import numpy as np, tetlap
+    >>> V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1.2]]
+    >>> T = [[0, 1, 2, 3], [1, 2, 3, 4]]
+    >>> tetlap.diagnostics.non_delaunay_faces(V, T).tolist()
+    [False]
+    >>> K = [[1.0, 0.5, 0.0], [0.5, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    >>> tetlap.diagnostics.non_delaunay_faces(V, T, coefficient=K).tolist()
+    [True]
+    """
+    return _non_delaunay(V, T, rtol, coefficient)[0]
 
 
 @_arrays.takes_mesh_object
-def non_delaunay_tets(V, T=None, rtol: float = DELAUNAY_RTOL) -> np.ndarray:
+def non_delaunay_tets(V, T=None, rtol: float = DELAUNAY_RTOL, *, coefficient=None) -> np.ndarray:
     """Boolean (m,): tets with a face whose neighbour's opposite vertex is inside their
-    circumsphere (either side of the face counts); ``rtol`` as for
-    :func:`non_delaunay_faces`."""
-    _options.tolerance(rtol, "rtol")
-    V, T = _geometry(V, T)
-    interior = _core.faces(T, len(V))[1]
-    flags = _core.non_delaunay(V, T, interior, float(rtol))
+    circumsphere (either side of the face counts); ``rtol`` and ``coefficient`` (the test
+    in the metric) as for :func:`non_delaunay_faces`."""
+    flags, interior, T = _non_delaunay(V, T, rtol, coefficient)
     bad = np.zeros(len(T), dtype=bool)
     bad[interior[flags][:, [0, 2]].ravel()] = True
     return bad
+
+
+def _non_delaunay(V, T, rtol, coefficient):
+    """``(flags, interior, T)``: :func:`non_delaunay_faces`, the core's interior face pairs
+    ``[s, a, t, b]`` and the validated tets."""
+    _options.tolerance(rtol, "rtol")
+    V, T = _geometry(V, T)
+    K = _metric(coefficient, V, T)
+    interior = _core.faces(T, len(V))[1]
+    if K is None:
+        return _core.non_delaunay(V, T, interior, float(rtol)), interior, T
+    return _delaunay_in_metric(V, T, K, interior, rtol)[0], interior, T
+
+
+def _delaunay_in_metric(V, T, K, interior, rtol: float = DELAUNAY_RTOL):
+    """``(flags, margin)`` per row of ``interior``: not locally Delaunay in the metric (the
+    sum of the two contributions of :func:`_metric_face_weights` below ``-rtol`` times the
+    sum of their sizes), and that sum relative to the sum of the sizes, in [-1, 1] (the
+    most negative, the worst face; 0 between two flat tets)."""
+    w, size = _metric_face_weights(V, T, K, interior)
+    total, size = w.sum(axis=1), size.sum(axis=1)
+    margin = np.divide(total, size, out=np.zeros_like(total), where=size > 0)
+    return margin < -rtol, margin
 
 
 def _folds(V, T, interior, sign) -> np.ndarray:

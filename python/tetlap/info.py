@@ -21,7 +21,7 @@ Example
 >>> import tetlap
 >>> r = tetlap.info.report(*tetlap.meshes.cube(3))
 >>> r["schema_version"], r["mesh"]["n_tets"], r["primal"]["nsd"], r["dual"]["n_negative_interior"]
-(4, 162, True, 0)
+(5, 162, True, 0)
 """
 
 from __future__ import annotations
@@ -30,10 +30,11 @@ from __future__ import annotations
 import numpy as np
 
 from . import _arrays, _extras, _options, assembly, diagnostics
+from . import coefficient as _coefficient
 from ._float_range import check_float_range
 from ._progress import Stages
 from .errors import ShapeError, TetlapError
-from .analysis import NEGATIVE_TOL, _check, check, lumped_masses, negative_weights
+from .analysis import NEGATIVE_TOL, _check, _constant, check, lumped_masses, negative_weights
 from .regular import RegularWeights, regular_weights
 from ._names import public_dir
 
@@ -49,8 +50,10 @@ __dir__ = public_dir(globals())
 #: Rayleigh quotient is an upper bound, not the eigenvalue), ``regular.guarantees``; 4:
 #: the folds under ``"mesh"`` (``n_folded_faces``, ``n_folded_tets``, ``folded_tets``,
 #: ``n_folded_vertices``, ``folded_vertices``), ``linear_precision_residual`` measured in
-#: a frame centred on the mesh.
-SCHEMA_VERSION = 4
+#: a frame centred on the mesh; 5: ``coefficient`` at the top level, and in each operator
+#: ``coefficient``, ``n_obtuse_tets_metric``, ``obtuse_tets_metric``,
+#: ``n_non_delaunay_faces_metric``, ``non_delaunay_faces_metric`` (Table 1 in the metric).
+SCHEMA_VERSION = 5
 
 #: The operators of the report: (Laplacian kind, mass kind).
 PAIRS = (("primal", "barycentric"), ("dual", "circumcentric"))
@@ -65,7 +68,8 @@ REGULAR_MAX_TETS = 300_000
 
 
 def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
-           regular: bool = True, regular_time_limit: float | None = None) -> dict:
+           regular: bool = True, regular_time_limit: float | None = None,
+           coefficient=None) -> dict:
     """The report of ``tetlap info`` as a JSON-ready dict.
 
     Parameters
@@ -86,6 +90,12 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
         budget; past it its ``status`` is ``"undecided"`` and the report depends on the
         machine's speed and load. Default None: the work budget alone (the same report
         on every run), and no search above :data:`REGULAR_MAX_TETS` tets.
+    coefficient : array-like of real numbers, optional
+        A coefficient of ``div(K grad u)`` (``(m,)``, ``(m, 3, 3)`` or ``(3, 3)``, as
+        :func:`tetlap.laplacian` takes it and validated by the same rule): both operators
+        are built with it and checked in its metric (:func:`tetlap.check` with
+        ``coefficient=``); the ``regular`` section, a search for weights of the plain
+        dual, is then "n/a".
 
     Returns
     -------
@@ -97,7 +107,8 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
         "not regular" or "undecided", ``margin``, ``negative_interior_weights`` of the
         dual, the weighted dual and the primal, ...), ``{"status": "n/a", "reason": ...}``
         when it does not apply (points not in R^3, flat tets, a big mesh without a time
-        limit), None with ``regular=False``. Every float is finite.
+        limit), None with ``regular=False``. ``coefficient``: None, or ``{"kind": "scalar"
+        | "tensor", "constant": bool}``. Every float is finite.
 
     Raises
     ------
@@ -111,6 +122,7 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
     V, T = _arrays.mesh(V, T)
     V = _arrays.points(V)
     T = _arrays.elements(T, 4)
+    K = None if coefficient is None else _coefficient.check(coefficient, V, T)
     check_float_range(V, T)
     step = Stages("tetlap info", progress)
     step("mesh diagnostics")
@@ -118,22 +130,28 @@ def report(V, T=None, *, nsd: bool = True, progress: bool | None = None,
     result = {"schema_version": SCHEMA_VERSION, "mesh": summary}
     for lap, mass in PAIRS:
         step(f"{lap} Laplacian and {mass} mass")
-        L, M, skipped = assembly._operators_skipping(V, T, lap, mass)
+        L, M, skipped = assembly._operators_skipping(V, T, lap, mass, K)
         step(f"checks of the {lap} Laplacian")
         # L is laplacian(V, T, lap, degenerate="skip") bitwise: the certificates need no gap
         result[lap] = _check(L, V, T, M, kind=lap, negative_tol=NEGATIVE_TOL, nsd=nsd,
                              boundary=boundary, mesh_volume=result["mesh"]["mesh_volume"],
-                             assembled=True).to_dict()
+                             assembled=True, coefficient=K).to_dict()
         result[lap].update(_skipped(skipped, result[lap]["notes"]))
     result["regular"] = None
     if regular:
         step("regular weights")
-        if regular_time_limit is None and len(T) > REGULAR_MAX_TETS:
+        if K is not None:
+            result["regular"] = {"status": "n/a", "reason": (
+                "regular weights are searched for the plain dual; the operators here are "
+                "built with a coefficient")}
+        elif regular_time_limit is None and len(T) > REGULAR_MAX_TETS:
             result["regular"] = {"status": "n/a", "reason": (
                 f"{len(T)} tets > {REGULAR_MAX_TETS}: not searched by default, pass a time "
                 "limit (--regular-time S) to search")}
         else:
             result["regular"] = _regular_section(V, T, result, regular_time_limit)
+    result["coefficient"] = None if K is None else {
+        "kind": "scalar" if K.ndim == 1 else "tensor", "constant": _constant(K)}
     step.done()
     return result
 

@@ -20,20 +20,25 @@ its eigenvectors, and it is what every member of the cluster gets.
 * :func:`eigenvalue_gradients`: ``d lambda_i / dV`` for every returned pair, (k, n, d).
 * :func:`eigenvalue_vjp`: ``sum_i g_i d lambda_i / dV`` for given ``g`` in at most four
   passes, whatever ``k`` (the backward step of a loss of the spectrum).
+* :func:`coefficient_gradients`: ``d lambda_i / dc_t`` with respect to the coefficient of
+  ``div(c grad u)`` per tet (scalars, both constructions; tensors, the primal): the
+  Laplacian is linear in it, so ``d lambda = -v^T dL v`` needs no derivative of the
+  geometry (what conductivity estimation needs).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import _arrays
+from . import _arrays, assembly, calculus
 from ._docs import shared_docs
 from ._names import public_dir
 from .derivatives import dirichlet_energy, mass_energy
-from .errors import NonFiniteError, ShapeError
+from .errors import NonFiniteError, OptionError, ShapeError
+from .solve._checks import flag
 from .solve._eigs import CLUSTER_RTOL
 
-__all__ = ["eigenvalue_gradients", "eigenvalue_vjp", "clusters"]
+__all__ = ["eigenvalue_gradients", "eigenvalue_vjp", "coefficient_gradients", "clusters"]
 __dir__ = public_dir(globals())
 
 
@@ -192,3 +197,84 @@ def eigenvalue_gradients(V, T, eigenvalues, eigenvectors, kind="primal",
         out[members] = _gradient(V, T, vec[:, members], share, -share * lam[members],
                                  kind, mass, options)
     return out
+
+
+#: The local edges ``(a, b)`` of a tet, in :func:`tetlap.element_contributions`' order.
+_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
+
+
+@shared_docs
+def coefficient_gradients(V, T, eigenvalues, eigenvectors, kind="primal", *,
+                          tensor: bool = False, boundary_centres="circumcentric",
+                          degenerate="raise", threads=None) -> np.ndarray:
+    """``d lambda_i / dc_t``: the derivatives of the eigenvalues of ``-L v = lambda M v``,
+    ``L`` built with ``coefficient=c``, with respect to the coefficient of each tet; the
+    members of a cluster get the derivative of its mean.
+
+    ``L`` is linear in a scalar coefficient, ``L = sum_t c_t L_t`` (``L_t`` the tet's plain
+    contribution), and the primal in a tensor, ``L_t = -vol_t G_t^T K_t G_t``; the mass does
+    not depend on it. So for an ``M``-orthonormal ``v``, ``d lambda = -v^T dL v``:
+
+    * scalars: ``d lambda / dc_t = sum_(a, b) w^t_ab (v_a - v_b)^2 >= 0`` over the tet's
+      edges, ``w^t`` its plain weights of ``kind`` (primal, dual, or an affine ``t``);
+    * tensors (primal): ``d lambda / dK_t = vol_t grad(v)_t grad(v)_t^T`` (3, 3), symmetric
+      positive semidefinite (read it as the gradient over symmetric tensors).
+
+    Parameters
+    ----------
+    {tet_mesh}
+    eigenvalues : (k,) array-like, ascending
+        From :func:`tetlap.solve.eigs` on ``L`` built with ``coefficient=`` (any value:
+        the derivative is taken at it through the eigenvectors).
+    eigenvectors : (n, k) array-like
+        Their ``M``-orthonormal eigenvectors (zero on fixed vertices).
+    {kind}
+    tensor : bool, default False
+        ``False``: per-tet scalars, (k, m). ``True``: per-tet tensors of the primal,
+        (k, m, 3, 3) (the dual in a tensor metric is not linear in the tensor: an
+        :class:`tetlap.OptionError`).
+    boundary_centres, degenerate, threads
+        As for :func:`tetlap.laplacian`. Vertex weights are not taken: a weighted dual's
+        power centres move with the metric, so it is not linear in the coefficient.
+
+    Returns
+    -------
+    (k, m) or (k, m, 3, 3) float64
+        ``[i, t] = d lambda_i / dc_t`` (non-negative: a better conductor raises every
+        eigenvalue of the primal; the dual's can be negative where its weights are).
+
+    Examples
+    --------
+    Scaling every coefficient by ``1 + s`` scales every eigenvalue by it, so the sum of
+    ``c_t d lambda / dc_t`` over the tets is ``lambda`` (Euler's theorem):
+
+    >>> import numpy as np, tetlap
+    >>> V, T = tetlap.meshes.ball(600, seed=1)
+    >>> c = tetlap.coefficient.from_vertices(1 + V[:, 0] ** 2, T)
+    >>> L, M = tetlap.operators(V, T, "primal", "fem", coefficient=c)
+    >>> lam, vec = tetlap.solve.eigs(L, M, 4, tetlap.diagnostics.boundary_vertices(V, T))
+    >>> G = tetlap.spectral.coefficient_gradients(V, T, lam, vec)
+    >>> G.shape, bool(np.allclose(G @ c, lam))
+    ((4, 2894), True)
+    """
+    V, T, lam, vec = _pairs(V, T, eigenvalues, eigenvectors)
+    tensor = flag(tensor, "tensor", unset=False)
+    T = _arrays.elements(T, 4)
+    if tensor:
+        if kind != "primal":
+            raise OptionError(f"tensor=True differentiates the primal only (the dual in a "
+                              f"tensor metric is not linear in the tensor), got kind={kind!r}")
+        G, vol = calculus.element_gradients(V, T, degenerate=degenerate)
+        grad = np.einsum("mad,mak->kmd", G, vec[T])           # grad(v_i) on each tet
+        per_pair = vol[None, :, None, None] * grad[..., :, None] * grad[..., None, :]
+    else:
+        W = assembly.element_contributions(V, T, kind, boundary_centres=boundary_centres,
+                                           degenerate=degenerate, threads=threads)
+        diff = vec[T[:, _EDGES[:, 0]]] - vec[T[:, _EDGES[:, 1]]]   # (m, 6, k)
+        per_pair = np.einsum("me,mek->km", W, diff * diff)
+    groups = clusters(lam)
+    sizes = np.bincount(groups)
+    means = np.zeros((len(sizes),) + per_pair.shape[1:])
+    np.add.at(means, groups, per_pair)
+    return (means / sizes.reshape((-1,) + (1,) * (per_pair.ndim - 1)))[groups]
+

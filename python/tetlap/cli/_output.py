@@ -126,10 +126,22 @@ def info_report(result: dict, source: str) -> str:
         ("vertices with mass <= 0", str(p["mass_nonpositive"]), str(d["mass_nonpositive"])),
         ("tets skipped", str(p["n_skipped_tets"]), str(d["n_skipped_tets"])),
     ]
+    if result.get("coefficient") is not None:   # each construction's own row in the metric
+        rows[4:4] = [
+            ("tets obtuse in the metric", _share(p["n_obtuse_tets_metric"], p["n_tets"]), "-"),
+            ("faces not Delaunay in the metric", "-",
+             _share(d["n_non_delaunay_faces_metric"], m["n_interior_faces"])),
+        ]
     widths = [max(len(r[k]) for r in rows + [("property", "primal", "dual")]) for k in range(3)]
     lines += ["", f"{'property':<{widths[0]}}  {'primal':>{widths[1]}}  {'dual':>{widths[2]}}"]
     lines += [f"{label:<{widths[0]}}  {a:>{widths[1]}}  {b:>{widths[2]}}" for label, a, b in rows]
     lines += ["(mass: barycentric with the primal, circumcentric with the dual)", ""]
+    c = result.get("coefficient")
+    if c is not None:
+        lines[-1:-1] = [f"(both built with a {'constant' if c['constant'] else 'varying'} "
+                        f"{c['kind']} coefficient K; in the metric: each tet mapped by K^-1/2)"]
+        lines += [f"{kind}: {note}" for kind, r in (("primal", p), ("dual", d))
+                  for note in r["notes"] if note.startswith("linear precision: not applicable")]
     lines += [f"semidefinite ({kind}): {r['nsd_method']}" for kind, r in (("primal", p), ("dual", d))]
     lines += [_skipped_line(kind, r) for kind, r in (("primal", p), ("dual", d)) if r["n_skipped_tets"]]
     if result.get("regular") is not None:
@@ -183,8 +195,9 @@ def next_steps(result: dict) -> list[str]:
                       '(tetlap.mass(V, T, "mixed"); "barycentric" is positive too)')
     negative = d["n_negative_interior"]
     if negative and r is None:
-        advice.append(f"the dual has {negative} negative interior weights: run without "
-                      "--no-regular to search for vertex weights that remove them")
+        if result.get("coefficient") is None:    # the search is for the plain dual
+            advice.append(f"the dual has {negative} negative interior weights: run without "
+                          "--no-regular to search for vertex weights that remove them")
     elif negative and r["status"] == "regular" and (
             (r.get("guarantees") or {}).get("nonnegative_interior") == "yes"):
         g = r["guarantees"]

@@ -34,6 +34,7 @@ def arguments(p) -> None:
                         "warning says how many), mixed ones are the positive dual masses")
     p.add_argument("--degenerate", default="raise", choices=["raise", "skip"],
                    help="zero-volume tets: an error, or no contribution (default: raise)")
+    p.add_argument("--coefficient", metavar="X", help=_mesh.COEFFICIENT_HELP)
     _threads.argument(p)
 
 
@@ -87,7 +88,8 @@ def run(args) -> int:
 
     V, T, _ = _mesh.load(args.mesh)
     L, M = assembly.operators(V, T, laplacian=kind(args.laplacian), mass=args.mass,
-                              degenerate=args.degenerate)
+                              degenerate=args.degenerate,
+                              coefficient=_mesh.coefficient(args.coefficient, args.mesh, V, T))
     bad = int((M.diagonal()[diagnostics.referenced_vertices(V, T)] <= 0).sum())
     l_file, m_file = output_names(args.output, args.mesh)
     _paths.make_folder(l_file)

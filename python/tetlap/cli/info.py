@@ -31,6 +31,8 @@ def arguments(p) -> None:
                         "number; past it the verdict is 'undecided' and depends on the "
                         "machine's load (default: none, a work budget that gives the same "
                         "answer on every run)")
+    p.add_argument("--coefficient", metavar="X", help=_mesh.COEFFICIENT_HELP + "; both "
+                   "Laplacians are built with it and checked in its metric")
     _threads.argument(p)
     p.add_argument("--plot", metavar="DIR",
                    help="also write histograms of dihedral angles, weights and masses "
@@ -57,9 +59,11 @@ def run(args) -> int:
     step = Stages("tetlap info", not args.json)   # stderr; a line per step when not a terminal
     step("read the mesh" if args.mesh else "make the built-in mesh")
     V, T, source = _mesh.load(args.mesh)
+    K = _mesh.coefficient(args.coefficient, args.mesh, V, T)
     step.done()
     result = info.report(V, T, nsd=not args.no_nsd, progress=not args.json,
-                         regular=not args.no_regular, regular_time_limit=args.regular_time)
+                         regular=not args.no_regular, regular_time_limit=args.regular_time,
+                         coefficient=K)
     if args.json:
         print(_output.json_document({"schema_version": result["schema_version"],
                                      "source": source, **result}))
