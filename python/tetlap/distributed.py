@@ -29,7 +29,8 @@ import sys
 
 import numpy as np
 
-from . import _options, assembly
+from . import _arrays, _options, assembly
+from .errors import ShapeError
 from ._names import public_dir
 
 __all__ = ["assemble", "load_share", "dirichlet", "eigs", "boundary_rows", "info", "to_scipy"]
@@ -127,6 +128,23 @@ def load_share(points_path, tets_path, comm=None):
     return V, np.searchsorted(vertices, T), vertices, int(points.shape[0]), int(tets.shape[0])
 
 
+def _rows(values, lo: int, hi: int, m: int, name: str):
+    """This rank's rows ``lo:hi`` of a per-tet array (or a ``.npy`` path to one, read
+    through a memory map), or one ``(3, 3)`` tensor as it is; None stays None."""
+    if values is None:
+        return None
+    if isinstance(values, (str, os.PathLike)):
+        values = np.load(values, mmap_mode="r")
+    values = _arrays._as_array(values, name)
+    if values.shape == (3, 3):
+        return np.asarray(values)
+    if values.ndim == 0 or values.shape[0] != m:
+        raise ShapeError(f"{name} must have one row per tet ({m}) or be one (3, 3) tensor, "
+                         f"got shape {values.shape}")
+    share = np.asarray(values[lo:hi])
+    return share.reshape(-1, 3, 3) if share.ndim == 2 and share.shape[1] == 9 else share
+
+
 def _matrix(PETSc, comm, n: int):
     A = PETSc.Mat().create(comm=comm)
     A.setSizes(((None, n), (None, n)))
@@ -146,21 +164,28 @@ def _add_csr(A, local, vertices) -> None:
 
 
 def assemble(points_path, tets_path, laplacian="dual", mass="circumcentric", comm=None,
-             degenerate="raise"):
+             degenerate="raise", *, coefficient=None, density=None):
     """Assemble ``L`` (a PETSc ``Mat``) and ``M`` (a ``Vec`` of lumped masses, a ``Mat``
     for ``mass="fem"``, or None) from ``.npy`` files, every rank its share of the tets.
 
     ``points_path``: (n, d) float array; ``tets_path``: (m, 4) integer array. ``laplacian``
     and ``mass`` as in :func:`tetlap.operators`. (The barycentric boundary option and vertex
     weights are not available here: a rank does not see the global boundary.)
+    ``coefficient`` and ``density``: as in :func:`tetlap.operators` (one row per tet, in
+    the order of ``tets_path``, or one ``(3, 3)`` tensor; ``(m, 9)`` rows are tensors), an
+    array or the path of a ``.npy`` file, which every rank reads its share of through a
+    memory map.
     """
     PETSc = _petsc()
     comm = comm or PETSc.COMM_WORLD
     V, T, vertices, n, m = load_share(points_path, tets_path, comm)
+    lo, hi = _share(m, comm.getRank(), comm.getSize())
+    K = _rows(coefficient, lo, hi, m, "coefficient")
+    rho = _rows(density, lo, hi, m, "density")
     Lloc = Mloc = None
     if len(T):
         Lloc, Mloc = assembly.operators(V, T, laplacian, mass or "barycentric",
-                                        degenerate=degenerate)
+                                        coefficient=K, density=rho, degenerate=degenerate)
     L = _matrix(PETSc, comm, n)
     _add_csr(L, Lloc, vertices)
     L.assemblyBegin()

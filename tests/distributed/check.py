@@ -53,6 +53,32 @@ for kind, mass in (("primal", "barycentric"), ("dual", "circumcentric"), (0.5, "
     else:
         results += [True, True]
 
+# a coefficient and a density per tet, from arrays and from .npy files ((m, 9) rows)
+rng = np.random.default_rng(3)
+A = rng.normal(size=(len(T), 3, 3))
+K = np.einsum("mij,mkj->mik", A, A) + np.eye(3)
+rho = rng.uniform(0.5, 2.0, len(T))
+K_path, rho_path = os.path.join(folder, "K.npy"), os.path.join(folder, "rho.npy")
+if rank == 0:
+    np.save(K_path, K.reshape(-1, 9))
+    np.save(rho_path, rho)
+comm.Barrier()
+for label, coefficient, density in (("arrays", K, rho), ("files", K_path, rho_path),
+                                    ("one tensor", K[0], None)):
+    L, M = distributed.assemble(points_path, tets_path, "primal", "fem",
+                                coefficient=coefficient, density=density)
+    Ls, Ms = distributed.to_scipy(L), distributed.to_scipy(M)
+    if rank == 0:
+        L0, M0 = tetlap.operators(V, T, "primal", "fem",
+                                  coefficient=K if label != "one tensor" else K[0],
+                                  density=rho if density is not None else None)
+        dl, dm = abs(Ls - L0).max(), abs(Ms - M0).max()
+        check(f"coefficient and density ({label}) equal the serial ones",
+              dl <= 1e-12 * abs(L0).max() and dm <= 1e-12 * abs(M0).max(),
+              f"max diff {dl:.1e}, {dm:.1e}")
+    else:
+        results.append(True)
+
 # Dirichlet: a linear function from its boundary values, and the serial solution
 boundary = tetlap.diagnostics.boundary_vertices(T, len(V))
 fixed = np.flatnonzero(boundary)
