@@ -1,4 +1,4 @@
-"""The accuracy rule (README "Accuracy"): every dual variant is computed to within 1e-12 of
+"""The accuracy rule (docs/guide/accuracy.md): every dual variant is computed to within 1e-12 of
 the largest value of its kind in each tet, against exact rationals, on the shapes where
 floating point loses digits (hull slivers / caps, near-cospherical slivers), with and
 without vertex weights, with the barycentric boundary fix and for the mixed mass; zero and

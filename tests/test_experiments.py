@@ -257,7 +257,8 @@ def test_every_install_hint_is_the_readme_s(monkeypatch):
     root = pathlib.Path(tetlap.__file__).parent  # the installed package's sources
     repo = pathlib.Path(__file__).resolve().parent.parent  # the checkout; CI installs a wheel
     extras = tomllib.loads((repo / "pyproject.toml").read_text())["project"]["optional-dependencies"]
-    readme = (repo / "README.md").read_text()
+    readme = "".join((repo / name).read_text()      # the extras: the guide's first page
+                     for name in ("README.md", "docs/guide/getting-started.md"))
     assert 'pip install ".[experiments,' in readme and "tetlap[" not in readme
     for extra in re.findall(r'pip install "\.\[([\w,]+)\]"', readme):
         assert set(extra.split(",")) <= set(extras), extra

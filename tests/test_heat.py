@@ -442,7 +442,7 @@ def test_the_set_up_reports_its_steps(capsys):
         HeatDistance(V, T, progress="yes")
 
 
-# ---- the accuracy that README and the docstring quote ---------------------------------------
+# ---- the accuracy that the guide and the docstring quote --------------------------------------
 
 def accuracy(V, T, s, **options):
     d = tetlap.heat_distance(V, T, s, **options)
@@ -453,13 +453,14 @@ def accuracy(V, T, s, **options):
 
 
 def readme_table():
-    """``{(mesh, source): (mean, worst, below, by)}`` of README's accuracy table, in
-    fractions (None where a cell is empty)."""
+    """``{(mesh, source): (mean, worst, below, by)}`` of the accuracy table of the guide's
+    page on distances, in fractions (None where a cell is empty)."""
     import pathlib
     import re
 
-    text = (pathlib.Path(__file__).resolve().parent.parent / "README.md").read_text()
-    section = text.split("### Geodesic distance (heat method)")[1].split("\n### ")[0]
+    root = pathlib.Path(__file__).resolve().parent.parent
+    text = (root / "docs" / "guide" / "fields.md").read_text()
+    section = text.split("## Geodesic distance (heat method)")[1].split("\n## ")[0]
     rows = {}
     for line in section.splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
@@ -471,7 +472,7 @@ def readme_table():
 
 
 def close_to(measured, quoted) -> bool:
-    """The measured mean, worst, fraction below and its worst against README's row, to the
+    """The measured mean, worst, fraction below and its worst against the table's row, to the
     digits it prints (0.1% for the errors, 1% for the fraction of vertices)."""
     return all(q is None or abs(m - q) <= tol for m, q, tol in
                zip(measured, quoted, (0.0006, 0.0006, 0.006, 0.0006)))

@@ -184,7 +184,7 @@ def test_fuzz_extreme_anisotropy_keeps_row_sums_and_linear_precision(log_ratio, 
         return
     assert np.isfinite(L.data).all()
     scale = np.abs(L).max(axis=1).toarray().ravel()
-    # the stated limit (README, Accuracy): rows sum to zero within 1e-12 of their largest
+    # the stated limit (docs/guide/accuracy.md): rows sum to zero within 1e-12 of their largest
     # entry; the dual of seed 431 squashed by 1e-8 has 1.8e-13 (tets' weights of either
     # sign on an edge: the diagonal's grouping of the sums rounds apart from the row's)
     assert (np.abs(L.sum(axis=1)) <= 1e-12 * scale).all()

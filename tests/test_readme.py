@@ -1,11 +1,11 @@
-"""The README's examples run as written: every ```python block on its own (a fresh
-namespace) and every ```pycon block as a doctest, so the numbers it shows are the ones the
-code prints. A block whose first line is ``# requires: MODULE`` runs only when MODULE can
-be imported."""
+"""The README is the front page: what tetlap is, the two commands, one example, a picture,
+the "which operator?" table and links into the guide, each of which exists. Its examples
+run as written, with the guide's runner (tests/test_guide.py): every ```python block on
+its own and every ```pycon block as a doctest, so the numbers it shows are the ones the
+code prints."""
 
 from __future__ import annotations
 
-import doctest
 import importlib.util
 import os
 import pathlib
@@ -13,110 +13,55 @@ import re
 
 import numpy as np
 import pytest
+from test_docs_reference import JOBS
+from test_guide import code_blocks, run_block
 
-README = pathlib.Path(__file__).resolve().parent.parent / "README.md"
-BLOCK = re.compile(r"^```(python|pycon)\n(.*?)^```", re.MULTILINE | re.DOTALL)
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
 
 
-def blocks():
+def test_the_readme_has_an_example():
+    assert [p.values[0] for p in code_blocks(README)].count("pycon") >= 1
+
+
+@pytest.mark.parametrize("kind, code, path", code_blocks(README))
+def test_readme_block_runs_as_written(kind, code, path):
+    run_block(kind, code, path)
+
+
+def test_the_readme_is_a_front_page():
+    """Its sections are the front page's, and nothing else: the rest lives in the guide."""
     text = README.read_text()
-    found = []
-    for match in BLOCK.finditer(text):
-        line = text[:match.start()].count("\n") + 1
-        found.append(pytest.param(match.group(1), match.group(2), id=f"line {line}"))
-    return found
+    assert re.findall(r"^## (.*)$", text, re.MULTILINE) == [
+        "Two commands", "Example", "Which operator?", "Documentation"]
+    assert "pip install . && tetlap info" in text
+    assert 'cargo test --workspace && python -m pytest -m "slow or not slow"' in text
 
 
-def test_the_readme_has_examples():
-    kinds = [p.values[0] for p in blocks()]
-    assert kinds.count("pycon") >= 3 and kinds.count("python") >= 1
-
-
-@pytest.mark.parametrize("kind, code", blocks())
-def test_readme_block_runs_as_written(kind, code):
-    first = code.splitlines()[0]
-    if first.startswith("# requires:"):
-        module = first.split(":", 1)[1].strip()
-        if importlib.util.find_spec(module) is None:
-            pytest.skip(f"needs {module}")
-    if kind == "python":
-        exec(compile(code, str(README), "exec"), {})
-        return
-    np.set_printoptions(legacy=False)
-    test = doctest.DocTestParser().get_doctest(code, {}, "README", str(README), 0)
-    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS)  # the output as printed
-    out: list[str] = []
-    runner.run(test, out=out.append)
-    assert runner.failures == 0, "".join(out)
-
-
-def test_the_bad_input_table_cites_tests_that_exist():
-    """Every ``[test_x, ...]`` of the table names a test file of this suite (or a Rust
-    test file), and every row cites at least one or says ``[untested: why]``."""
+def test_every_link_and_picture_of_the_readme_exists():
+    """Relative links and images name files of the repository (GitHub shows them), the
+    picture is a PNG under docs/, and every page of the guide is linked."""
     text = README.read_text()
-    table = text.split("<!-- bad-input-table -->")[1].split("<!-- /bad-input-table -->")[0]
-    rows = [r for r in table.splitlines() if r.startswith("| ") and not r.startswith("| input")]
-    assert len(rows) >= 20
-    here = pathlib.Path(__file__).parent
-    for row in rows:
-        if re.search(r"\[untested: [^\]]+\]", row):
-            continue
-        cited = re.findall(r"\[(?:Rust: )?([\w, .]+)\]", row)
-        names = [n.strip() for group in cited for n in group.split(",")]
-        assert names, f"no test cited: {row}"
-        for name in names:
-            if name.endswith(".rs"):
-                assert (here.parent / "rust" / "tests" / name).exists(), (name, row)
-            else:
-                assert (here / f"{name}.py").exists(), (name, row)
+    images = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
+    links = re.findall(r"(?<!!)\[[^\]]*\]\(([^)#]+)(?:#[^)]*)?\)", text)
+    assert len(images) == 1 and images[0].startswith("docs/") and images[0].endswith(".png")
+    assert (ROOT / images[0]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    for target in links:
+        assert not target.startswith(("/", "http")), target
+        assert (ROOT / target).exists(), f"README links to {target}, which does not exist"
+    assert {f"docs/guide/{job}.md" for job in JOBS} <= set(links)
 
 
-# ---- the statements around the examples, as written -----------------------------------
-
-
-def section(title: str) -> str:
+def test_the_site_shows_the_front_page_and_the_table_once():
+    """The site's index and the guide's "which operator?" page include the README's
+    parts between its markers, rather than copies of them."""
     text = README.read_text()
-    start = text.index(f"\n## {title}\n")
-    return text[start:text.index("\n## ", start + 1)]
-
-
-def test_the_command_summary_lists_every_flag_and_no_other():
-    """Each ``tetlap COMMAND`` line of "Commands" names exactly the command's flags."""
-    import argparse
-
-    from tetlap import cli
-
-    block = section("Commands").split("```sh\n")[1].split("```")[0]
-    listed = {line.split()[1]: set(re.findall(r"(?<![\w-])(--?[a-z][\w-]*)", line.split("#")[0]))
-              for line in block.splitlines() if line.startswith("tetlap ") and
-              not line.startswith("tetlap --")}
-    (sub,) = [a for a in cli.parser()._actions if isinstance(a, argparse._SubParsersAction)]
-    assert set(listed) == set(sub.choices)
-    for name, parser in sub.choices.items():
-        parser.format_help()                                     # adds its arguments
-        flags = {a.option_strings[-1] if a.option_strings[-1] != "--output" else "-o"
-                 for a in parser._actions if a.option_strings and a.dest != "help"
-                 and a.help != argparse.SUPPRESS}    # deprecated names, not advertised
-        assert listed[name] == flags, name
-
-
-def test_the_command_text_names_every_experiment():
-    from tetlap import experiments
-
-    text = " ".join(section("Commands").split())
-    named = re.search(r"`experiment` runs one of (.*?) and writes", text).group(1)
-    assert re.findall(r"`([\w-]+)`", named) == list(experiments.NAMES)
-
-
-def test_the_info_table_of_the_readme_is_what_tetlap_info_prints(capsys):
-    """"Which operator?" shows part of ``tetlap info`` on the built-in ball: every line of
-    it is a line of the real output."""
-    from tetlap import cli
-
-    shown = section("Which operator?").split("```\n")[1].split("```")[0].splitlines()
-    assert cli.main(["info", "--no-regular"]) == 0
-    printed = capsys.readouterr().out.splitlines()
-    assert len(shown) >= 8 and all(line in printed for line in shown), (shown, printed)
+    for marker in ("front-page", "which-operator"):
+        assert text.count(f"<!-- {marker} -->") == 1 and text.count(f"<!-- /{marker} -->") == 1
+    index = (ROOT / "docs" / "index.md").read_text()
+    guide = (ROOT / "docs" / "guide" / "which-operator.md").read_text()
+    assert ":start-after: <!-- front-page -->" in index
+    assert ":start-after: <!-- which-operator -->" in guide
 
 
 def test_independent_of_orientation_numbering_and_order_to_rounding():

@@ -1,4 +1,4 @@
-"""The one wording of the install hint of an optional dependency, the README's: tetlap is
+"""The one wording of the install hint of an optional dependency, the guide's: tetlap is
 installed from its repository (``pip install .``), its optional dependencies as extras
 of it (``pip install ".[io]"``).
 

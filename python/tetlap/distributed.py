@@ -46,7 +46,7 @@ _DEBIAN_PREFIXES = {
 }
 _INSTALL = ("Debian: apt-get install python3-petsc4py python3-slepc4py python3-mpi4py "
             "openmpi-bin, and use /usr/bin/python3 or a venv made from it with "
-            "--system-site-packages; see the README")
+            "--system-site-packages; see the guide's page docs/guide/scale.md")
 
 
 def _version_key(path: str) -> tuple[int, ...]:

@@ -34,8 +34,8 @@ boundary vertex); the distance falls below the straight-line distance, which no 
 distance does, at 66% of the vertices, by up to 12.7%. On ``ball(30000)``: mean 1.7%,
 worst 4.5%. On a mesh graded from edges of 0.0009 to 0.15 (``libigl_bunny.mesh``) the
 default ``t`` from the *mean* edge is too small for its long edges: 82% of the vertices
-fall below the straight line, by up to 55.9% (``t = 100 h^2``: 34%, by up to 22%). README,
-"Geodesic distance", has the table.
+fall below the straight line, by up to 55.9% (``t = 100 h^2``: 34%, by up to 22%).
+:doc:`/guide/fields` has the table.
 
 >>> import numpy as np, tetlap
 >>> V, T = tetlap.meshes.ball(2000, seed=0)
