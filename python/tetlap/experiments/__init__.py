@@ -69,6 +69,9 @@ EXPERIMENTS = (
     Experiment("finite-volumes", "finite_volumes",
                "Poisson on the ball: cell-centred and vertex-centred duals against the exact "
                "solution", 7),
+    Experiment("anisotropic", "anisotropic",
+               "div(K grad u) on the FVCA6 tets: primal, dual and regular dual in the metric, "
+               "cells", 20, corpus=True),
 )
 #: Their names, the choices of ``tetlap experiment NAME``.
 NAMES = tuple(e.name for e in EXPERIMENTS)
