@@ -31,7 +31,7 @@ __version__ = "0.1.0"
 _EXPORTS = {
     ".assembly": ("laplacian", "mass", "operators", "triplets", "edge_weights",
                   "element_contributions", "tet_contributions", "Triplets"),
-    ".derivatives": ("vjp", "dirichlet_energy", "mass_energy", "VJP"),
+    ".derivatives": ("vjp", "dirichlet_energy", "mass_energy", "coefficient_vjp", "VJP"),
     ".regular": ("regular_weights", "RegularWeights"),
     ".mesh": ("Mesh", "UpdateInfo"),
     ".calculus": ("gradient", "divergence"),
@@ -86,7 +86,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, imported e
     from .analysis import Report, check
     from .assembly import (Triplets, edge_weights, element_contributions, laplacian, mass,
                            operators, tet_contributions, triplets)
-    from .derivatives import VJP, dirichlet_energy, mass_energy, vjp
+    from .derivatives import VJP, coefficient_vjp, dirichlet_energy, mass_energy, vjp
     from .errors import (CoefficientError, CompatibilityError, DegenerateElementError, DtypeError,
                          EmptyMeshError, IndexRangeError, InternalError, MeshFileError,
                          NonFiniteError, OptionError, RepeatedVertexError, ShapeError,

@@ -10,6 +10,9 @@ mode, not finite differences) in the same parallel, deterministic pass as the as
   sum_ij A_ij B_ij``): the backward step of any computation that uses ``L`` or ``M``.
 * :func:`dirichlet_energy`: ``E = -f^T L f`` and ``dE/dV``.
 * :func:`mass_energy`: ``E = f^T M f`` and ``dE/dV``.
+* :func:`coefficient_vjp`: ``dphi/dK`` for ``phi = <dL, L(K)>``, the coefficient's
+  gradient (scalars for both constructions, tensors for the primal): the backward step of
+  a conductivity-estimation (inverse) problem.
 
 Automatic-differentiation adapters built on :func:`vjp`: :mod:`tetlap.jax`
 (``jax.custom_vjp``) and :mod:`tetlap.torch` (``torch.autograd.Function``).
@@ -28,13 +31,14 @@ import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
 from ._options import weights_used
-from .assembly import _options
+from .assembly import _options, element_contributions
+from .coefficient import _argument
 from ._docs import shared_docs
 from ._options import renamed
-from .errors import DtypeError, ShapeError
+from .errors import DtypeError, OptionError, ShapeError
 from ._names import public_dir
 
-__all__ = ["vjp", "dirichlet_energy", "mass_energy", "VJP"]
+__all__ = ["vjp", "dirichlet_energy", "mass_energy", "coefficient_vjp", "VJP"]
 __dir__ = public_dir(globals())
 
 
@@ -176,7 +180,9 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     -----
     A degenerate tet raises, or with ``degenerate="skip"`` contributes a zero gradient,
     consistently with its zero contribution to the operators. Inputs are never modified;
-    the GIL is released.
+    the GIL is released. The operators differentiated are the plain ones: there is no
+    ``coefficient=`` here (the gradient with respect to a coefficient itself is
+    :func:`coefficient_vjp`).
 
     Examples
     --------
@@ -331,3 +337,147 @@ def mass_energy(V, T, f, kind="barycentric", *, boundary_centres="circumcentric"
     """
     return _energy(V, T, f, None, kind, weights, boundary_centres, degenerate, threads,
                    return_weights_gradient)
+
+
+#: The local edges of a tet, in the order of :func:`tetlap.element_contributions`.
+_LOCAL_EDGES = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
+
+
+def _element_cotangent(dL, T: np.ndarray, n: int) -> np.ndarray:
+    """(m, 6): the cotangent ``dL`` on each tet's own edge weights (local edge order of
+    :func:`tetlap.element_contributions`): ``dL[i, j] + dL[j, i] - dL[i, i] - dL[j, j]``
+    for a matrix, ``dw`` of the edge (repeats summed) for ``(edges, dw)``, or the (m, 6)
+    array itself."""
+    if dL is None:
+        raise TypeError("coefficient_vjp needs the cotangent dL")
+    kind, arrays = _laplacian_cotangent(dL, n, T.shape[0])
+    if kind == "elements":
+        return arrays
+    A = sp.csr_array(arrays, shape=(n, n))  # canonical, upper-triangular for (edges, dw)
+    i, j = T[:, _LOCAL_EDGES[:, 0]].ravel(), T[:, _LOCAL_EDGES[:, 1]].ravel()
+    if isinstance(dL, tuple):
+        lo, hi = np.minimum(i, j), np.maximum(i, j)
+        C = A[lo, hi]
+    else:
+        diagonal = A.diagonal()
+        C = A[i, j] + A[j, i] - diagonal[i] - diagonal[j]
+    return np.asarray(C, dtype=np.float64).reshape(T.shape[0], 6)
+
+
+def _gradients(V: np.ndarray, T: np.ndarray):
+    """``(G, vol)``: (m, 4, 3) the gradients of the tets' barycentric coordinates and (m,)
+    their volumes, each tet's edges scaled by a power of two to order one first (exact)
+    and ``G`` and ``vol`` returned for the scaled tet, with ``(m,)`` exponents ``e``: the
+    true ``G`` is ``G * 2^-e``, the true volume ``vol * 2^(3e)``."""
+    E = V[T[:, 1:]] - V[T[:, :1]]  # (m, 3, 3): rows x_k - x_0
+    e = np.frexp(np.abs(E).max(axis=(1, 2)))[1]
+    E = np.ldexp(E, -e[:, None, None])
+    vol = np.abs(np.linalg.det(E)) / 6
+    G = np.zeros((len(T), 4, 3))
+    ok = vol > 0
+    G[ok, 1:] = np.linalg.inv(E[ok]).swapaxes(1, 2)  # rows: gradients of lambda_1..3
+    G[:, 0] = -G[:, 1:].sum(axis=1)
+    return G, vol, e
+
+
+@renamed(boundary="boundary_centres")
+@_arrays.takes_mesh_object
+@shared_docs
+def coefficient_vjp(V, T, coefficient, kind="primal", *, dL, boundary_centres="circumcentric",
+                    weights=None, degenerate="raise", threads=None) -> np.ndarray:
+    """The vector-Jacobian product of the Laplacian with respect to its coefficient.
+
+    For a cotangent ``dL`` on ``L = laplacian(V, T, kind, coefficient=K)``, the gradient
+    of ``phi(K) = <dL, L(K)>`` (``<A, B> = sum_ij A_ij B_ij``) with respect to ``K``: the
+    backward step of a conductivity-estimation (inverse) problem. ``L`` is linear in ``K``
+    (for scalars, both constructions; for tensors, the primal), so the gradient does not
+    depend on the value of ``K``, only on its form:
+
+    * scalars ``c`` (m,): ``dphi/dc_t = <dL, L_t>``, ``L_t`` tet ``t``'s plain
+      contribution (either ``kind``);
+    * tensors (m, 3, 3), primal: ``L_t = -Vol_t G_t^T K_t G_t`` (``G_t`` the 3 x 4
+      gradients of the barycentric coordinates), so ``dphi/dK_t = -Vol_t G_t dL_t
+      G_t^T``, symmetrised (the gradient within symmetric matrices: for a symmetric
+      direction ``H``, ``dphi = sum_t <dphi/dK_t, H_t>``), ``dL_t`` the 4 x 4 cotangent
+      on the tet's entries;
+    * one tensor (3, 3): the sum of the per-tet gradients.
+
+    Parameters
+    ----------
+    {tet_mesh}
+    coefficient : array-like of real numbers
+        ``K``, as ``coefficient=`` of :func:`tetlap.laplacian` (validated the same way):
+        ``(m,)`` positive scalars, ``(m, 3, 3)`` or ``(3, 3)`` symmetric positive definite
+        tensors (the primal only: the dual's dependence on a tensor moves its centres).
+    {kind}
+    dL : required
+        The cotangent on ``L``, in any form :func:`vjp` takes: a SciPy sparse (n, n)
+        matrix (edge ``ij`` of tet ``t`` receives ``dL[i, j] + dL[j, i] - dL[i, i] -
+        dL[j, j]``), a pair ``(edges, dw)`` on the summed edge weights, or an (m, 6) array
+        on each tet's own weights.
+    {options}
+        ``weights`` are refused (:class:`tetlap.OptionError`): the weighted dual's powers
+        are measured in the metric of ``K``, so it is not linear in ``K``.
+
+    Returns
+    -------
+    numpy.ndarray, float64
+        The shape of ``coefficient``: ``(m,)``, ``(m, 3, 3)`` (symmetric) or ``(3, 3)``.
+        Zero for a tet skipped under ``degenerate="skip"``.
+
+    {raises}
+    tetlap.CoefficientError
+        A coefficient that is not positive (as everywhere).
+    tetlap.OptionError
+        A tensor with the dual; ``weights``.
+
+    Notes
+    -----
+    The gradient with respect to the vertices with a coefficient is not provided:
+    :func:`vjp`, :func:`dirichlet_energy` and the adapters differentiate the plain
+    operators.
+
+    Examples
+    --------
+    The Dirichlet energy ``E = -f^T L f`` of a conductivity ``c``: its gradient is each
+    tet's own plain energy, and ``E`` is linear in ``c``:
+
+    >>> import numpy as np, scipy.sparse as sp, tetlap
+    >>> V, T = tetlap.meshes.ball(200, seed=1)
+    >>> c = np.linspace(1.0, 2.0, len(T))
+    >>> f = V[:, 0] ** 2
+    >>> dE = tetlap.coefficient_vjp(V, T, c, "dual", dL=-sp.csr_array(np.outer(f, f)))
+    >>> E = -f @ (tetlap.laplacian(V, T, "dual", coefficient=c) @ f)
+    >>> bool(np.isclose(dE @ c, E))
+    True
+    """
+    V, T = _arrays.mesh(V, T)
+    V = _arrays.points(V)
+    T = _arrays.elements(T, 4)
+    K = _argument(coefficient, (V.shape, T.shape))
+    if K is None:
+        raise TypeError("coefficient_vjp needs the coefficient")
+    _core.check_coefficient(K, T.shape[0], 4, V.shape[1])
+    if weights is not None:
+        raise OptionError("coefficient_vjp refuses weights=: the weighted dual's powers are "
+                          "measured in the metric of the coefficient, so it is not linear in it")
+    C = _element_cotangent(dL, T, V.shape[0])
+    W = element_contributions(V, T, kind, boundary_centres=boundary_centres,
+                              degenerate=degenerate, threads=threads)
+    if K.ndim > 1 and kind != "primal":
+        raise OptionError(f"coefficient_vjp differentiates tensors for kind=\"primal\" only, got "
+                          f"kind={kind!r}: the dual's dependence on a tensor moves its centres; "
+                          "scalars are differentiated for both")
+    if K.ndim == 1:
+        return np.einsum("te,te->t", W, C)
+    G, vol, e = _gradients(V, T)
+    Cm = np.zeros((len(T), 4, 4))
+    a, b = _LOCAL_EDGES.T
+    Cm[:, a, b] = C
+    Cm[:, b, a] = C
+    # sym(-Vol sum_e C_e g_a g_b^T) = -Vol / 2 G^T Cm G, scaled back by 2^(3e - 2e)
+    dK = np.ldexp(-0.5 * vol[:, None, None] * np.einsum("tai,tab,tbj->tij", G, Cm, G),
+                  e[:, None, None])
+    dK = (dK + dK.swapaxes(1, 2)) / 2  # symmetric to the last bit
+    dK[~W.any(axis=1)] = 0.0  # skipped
+    return dK if K.ndim == 3 else dK.sum(axis=0)
