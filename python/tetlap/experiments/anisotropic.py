@@ -58,6 +58,7 @@ import scipy.sparse.linalg  # noqa: F401  (sp.linalg)
 from .. import assembly, cells, diagnostics, io, solve
 from .._progress import bar as progress
 from ..analysis import negative_weights
+from ..dual import dual_geometry
 from ..regular import regular_weights
 from ._plot import log_ticks
 from .._names import public_dir
@@ -183,8 +184,6 @@ class _Cell:
     of the face's tet (``n`` pointing out of it: negative for a centre beyond the face)."""
 
     def __init__(self, V, T, K, metric: bool):
-        from ..dual import dual_geometry
-
         self.V, self.T, self.K = V, T, K
         lam, Q = np.linalg.eigh(K)
         root, inverse_root = (Q * np.sqrt(lam)) @ Q.T, (Q / np.sqrt(lam)) @ Q.T
