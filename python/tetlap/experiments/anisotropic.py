@@ -68,7 +68,7 @@ __dir__ = public_dir(globals())
 
 OPERATORS = ("primal", "dual", "dual, regular weights", "cell", "cell, metric centres")
 #: The work budget of the regular-weights search on each mesh (``max_iterations``).
-REGULAR_ITERATIONS = 1000
+REGULAR_ITERATIONS = 300
 #: The tolerance of the maximum-principle count.
 OUTSIDE_TOL = 1e-12
 
@@ -203,12 +203,15 @@ class _Cell:
         d = self.face_centres - self.centres[self.tet]
         self.half = g.face_area[b] * np.einsum("fi,ij,fj->f", n, K, d) / (d * d).sum(1)
         self.A = self.Lc - sp.diags_array(np.bincount(self.tet, self.half, len(T)))
+        self.lu = None
         self.volume = g.volume
         self.load_points = V[T].mean(axis=1)
 
     def _solve(self, source, face_values):
+        if self.lu is None:     # one LU for both problems (A can be indefinite)
+            self.lu = sp.linalg.splu(sp.csc_array(-self.A))
         rhs = source - np.bincount(self.tet, self.half * face_values, len(self.T))
-        return sp.linalg.spsolve(sp.csc_array(-self.A), -rhs)
+        return self.lu.solve(-rhs)
 
     def solve(self, case: Case):
         c = self._solve(-self.volume * case.f(self.load_points), case.u(self.face_centres))
