@@ -71,7 +71,7 @@ EXPERIMENTS = (
                "solution", 7),
     Experiment("anisotropic", "anisotropic",
                "div(K grad u) on the FVCA6 tets: primal, dual and regular dual in the metric, "
-               "cells", 20, corpus=True),
+               "cells", 24, corpus=True),
 )
 #: Their names, the choices of ``tetlap experiment NAME``.
 NAMES = tuple(e.name for e in EXPERIMENTS)
