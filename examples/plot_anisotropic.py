@@ -12,7 +12,8 @@ weights that repair it (or proves that none exist).
 
 Here the FVCA6 benchmark's test 1 (``K = [[1, .5, 0], [.5, 1, .5], [0, .5, 1]]``,
 ``u = 1 + sin(pi x) sin(pi (y + 1/2)) sin(pi (z + 1/3))``) on random Delaunay balls
-(Delaunay for ``K = I``, not in the metric), ``u`` given on the boundary; the command ``tetlap experiment anisotropic`` runs it on the benchmark's own meshes, with a
+(Delaunay for ``K = I``, not in the metric), ``u`` given on the boundary; the command
+``tetlap experiment anisotropic`` runs it on the benchmark's own meshes, with a
 strongly anisotropic case and the cell-centred scheme too.
 """
 

@@ -10,7 +10,7 @@ paper's. Figures need matplotlib (``pip install ".[experiments]"``).
 
 >>> from tetlap import experiments
 >>> experiments.NAMES[:2], experiments.CORPUS_NAMES
-(('dirichlet-shell', 'eigen-ball'), ('negative-weights', 'improve', 'regular-weights', 'harmonic'))
+(('dirichlet-shell', 'eigen-ball'), ('negative-weights', 'improve', 'regular-weights', 'harmonic', 'anisotropic'))
 """
 
 from __future__ import annotations

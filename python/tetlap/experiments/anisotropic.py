@@ -109,9 +109,10 @@ class Case:
 
 
 CASES = (
-    Case("test 1", "[[1, .5, 0], [.5, 1, .5], [0, .5, 1]]", [[1.0, 0.5, 0.0], [0.5, 1.0, 0.5], [0.0, 0.5, 1.0]], np.pi,
-         [0.0, 0.5, 1.0 / 3.0], 1.0),
-    Case("strong", "diag(1, 1, 1000)", np.diag([1.0, 1.0, 1000.0]), 2 * np.pi, [0.0, 0.0, 0.0], 0.0),
+    Case("test 1", "[[1, .5, 0], [.5, 1, .5], [0, .5, 1]]",
+         [[1.0, 0.5, 0.0], [0.5, 1.0, 0.5], [0.0, 0.5, 1.0]], np.pi, [0.0, 0.5, 1.0 / 3.0], 1.0),
+    Case("strong", "diag(1, 1, 1000)", np.diag([1.0, 1.0, 1000.0]), 2 * np.pi, [0.0, 0.0, 0.0],
+         0.0),
 )
 
 
@@ -309,7 +310,8 @@ def _summary(out) -> None:
                 out.say(f"  {r['operator']:<22} {r['mesh']:<6} {r['note']}")
                 continue
             out.say(f"  {r['operator']:<22} {r['mesh']:<6} {r['n_tets']:>6} {r['h']:>7.4f} "
-                    f"{r['l2_error']:>9.2e} {r['l2_rate']!s:>5.5} {_number(r['gradient_error']):>9} "
+                    f"{r['l2_error']:>9.2e} {r['l2_rate']!s:>5.5} "
+                    f"{_number(r['gradient_error']):>9} "
                     f"{r['gradient_rate']!s:>5.5} {100 * r['negative_fraction']:>5.1f}% "
                     f"{r['outside']:>7}  {r['note']}")
 
