@@ -70,9 +70,7 @@ html_theme_options = {
 html_sidebars = {"index": []}
 
 # The gallery: every examples/plot_*.py runs on each build, on small meshes (the whole
-# gallery in about ten seconds on 2 cores); an example that raises fails the build. One job
-# of the guide has no example yet: the convergence of an anisotropic medium, which joins
-# as examples/plot_anisotropic_convergence.py with the operators' coefficient keyword.
+# gallery in about ten seconds on 2 cores); an example that raises fails the build.
 sphinx_gallery_conf = {
     "examples_dirs": "../examples",
     "gallery_dirs": "gallery",

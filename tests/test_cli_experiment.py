@@ -31,9 +31,9 @@ def test_meshes_only_for_the_experiments_that_read_a_folder(tmp_path, capsys):
                      str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert err == ("tetlap: error: experiment flips reads no mesh folder (--meshes is for "
-                   "negative-weights, improve, regular-weights, harmonic)\n")
+                   "negative-weights, improve, regular-weights, harmonic, anisotropic)\n")
     assert not (tmp_path / "out").exists()          # refused before any work
     with pytest.raises(SystemExit):
         cli.main(["experiment", "--help"])
-    assert ("negative-weights, improve, regular-weights, harmonic: a folder"
+    assert ("negative-weights, improve, regular-weights, harmonic, anisotropic: a folder"
             in " ".join(capsys.readouterr().out.split()))

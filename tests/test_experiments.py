@@ -181,7 +181,7 @@ def test_the_registry_lists_each_experiment_once_with_its_runner():
     import importlib
     import inspect
 
-    assert len(set(experiments.NAMES)) == len(experiments.EXPERIMENTS) == 10
+    assert len(set(experiments.NAMES)) == len(experiments.EXPERIMENTS) == 11
     for e in experiments.EXPERIMENTS:
         run = importlib.import_module(f"tetlap.experiments.{e.module}").run
         assert ("meshes" in inspect.signature(run).parameters) == e.corpus, e.name

@@ -46,7 +46,7 @@ LAYERS = (
      "regular regular.conditions regular.masses regular.result regular.search "
      "regular.verify "
      "experiments experiments._corpus experiments._output experiments._plot "
-     "experiments.eigen_ball experiments.finite_volumes experiments.flips "
+     "experiments.anisotropic experiments.eigen_ball experiments.finite_volumes experiments.flips "
      "experiments.harmonic experiments.heat_distance experiments.improve "
      "experiments.negative_weights experiments.regular_weights experiments.shell "
      "experiments.sphere3"),

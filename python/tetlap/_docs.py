@@ -83,7 +83,8 @@ coefficient : array-like of real numbers, optional
     ``L_ij = -sum_t Vol_t grad(phi_i) . K_t grad(phi_j)``. Dual: each tet's circumcentric
     contribution in the metric ``K_t^-1`` (of the tet mapped by ``K_t^-1/2``) times
     ``sqrt(det K_t)``, with ``weights`` as powers in that metric; a scalar ``c`` gives ``c``
-    times the plain contribution. ``None``: the plain operator, bitwise. A per-vertex field
+    times the plain contribution (with ``weights``: ``c`` times that of the weights ``c w``,
+    powers measured in the metric). ``None``: the plain operator, bitwise. A per-vertex field
     goes through :func:`tetlap.coefficient.from_vertices` first; bad values raise
     :class:`tetlap.CoefficientError` or :class:`tetlap.NonFiniteError` naming the element
     (:doc:`/guide/media`).""",

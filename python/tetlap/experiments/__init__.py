@@ -10,7 +10,7 @@ paper's. Figures need matplotlib (``pip install ".[experiments]"``).
 
 >>> from tetlap import experiments
 >>> experiments.NAMES[:2], experiments.CORPUS_NAMES
-(('dirichlet-shell', 'eigen-ball'), ('negative-weights', 'improve', 'regular-weights', 'harmonic'))
+(('dirichlet-shell', 'eigen-ball'), ('negative-weights', 'improve', 'regular-weights', 'harmonic', 'anisotropic'))
 """
 
 from __future__ import annotations
@@ -69,6 +69,9 @@ EXPERIMENTS = (
     Experiment("finite-volumes", "finite_volumes",
                "Poisson on the ball: cell-centred and vertex-centred duals against the exact "
                "solution", 7),
+    Experiment("anisotropic", "anisotropic",
+               "div(K grad u) on the FVCA6 tets: primal, dual and regular dual in the metric, "
+               "cells", 24, corpus=True),
 )
 #: Their names, the choices of ``tetlap experiment NAME``.
 NAMES = tuple(e.name for e in EXPERIMENTS)

@@ -57,6 +57,7 @@ import time
 import numpy as np
 
 from .. import _arrays, _options, analysis, assembly, diagnostics
+from .. import coefficient as _coefficient
 from .._float_range import LARGEST, SMALLEST, unit_scale
 from ..errors import DegenerateElementError, NonFiniteError, OptionError
 from ..analysis import negative_weights
@@ -183,7 +184,7 @@ def _dual_report(V, T, w, on_boundary, threads, semidefinite: bool,
 
 
 @_options.renamed(boundary="boundary_weights")
-def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN,
+def regular_weights(V, T, *, coefficient=None, target_margin: float = TARGET_MARGIN,
                     boundary_weights: str = "free",
                     mass_floor: float | None = 0.1, max_weight: float = 10.0,
                     max_iterations: int = MAX_ITERATIONS,
@@ -195,6 +196,20 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN,
     Parameters
     ----------
     V : (n, 3) array-like of real numbers.  T : (m, 4) integer array-like, any orientation.
+    coefficient : None or a constant coefficient ``K`` (as ``coefficient=`` of
+        :func:`tetlap.laplacian`): one ``(3, 3)`` symmetric positive definite tensor, or
+        ``(m,)`` scalars or ``(m, 3, 3)`` tensors that are all equal. The weights then make
+        the mesh regular *in the metric* ``K^-1``, so that
+        ``laplacian(V, T, "dual", coefficient=K, weights=r.weights)`` (the dual in that
+        metric, vertex weights as powers in it) has non-negative interior weights. For a
+        constant ``K`` that dual is ``sqrt(det K)`` times the plain weighted dual of the mesh
+        mapped by ``K^-1/2`` (rows are points: ``V @ K^-1/2``), with the same weights, so the
+        weights are those of the mapped mesh (computed in float64) and every statement below
+        holds of it: margins, counts and the semidefiniteness are those of the dual in the
+        metric; masses are the volumes of the power cells in the metric, mapped back
+        (``sqrt(det K)`` times the mapped mesh's). A coefficient that varies from tet to tet
+        raises :class:`tetlap.OptionError`: its dual has no single lifting (neighbouring
+        tets' power centres are computed in different metrics), so no weights certify it.
     target_margin : float > 0, the face margin (dual-edge length over face size) the weights
         aim for on the faces they repair. Faces that are strictly locally Delaunay keep at
         least ``min(half their plain margin, target_margin)``.
@@ -306,6 +321,11 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN,
     >>> bool(tetlap.check(L, V, T).linear_precision_ok)
     True
     """
+    if coefficient is not None:
+        return _in_metric(V, T, coefficient, target_margin=target_margin,
+                          boundary_weights=boundary_weights, mass_floor=mass_floor,
+                          max_weight=max_weight, max_iterations=max_iterations,
+                          time_limit=time_limit, threads=threads)
     start = time.perf_counter()
     settings = Settings.of(target_margin=target_margin, boundary_weights=boundary_weights,
                            mass_floor=mass_floor, max_weight=max_weight,
@@ -322,6 +342,48 @@ def regular_weights(V, T, *, target_margin: float = TARGET_MARGIN,
         decision = _decide(X, T_used, cond, settings, budget)
         result = _report(X, T_used, cond, settings, decision, start, late=budget.late())
     return _in_user_units(result, used, len(V), scale)
+
+
+def _constant_tensor(coefficient, V, T) -> np.ndarray:
+    """The one (3, 3) tensor of a constant coefficient, validated by the rule of every
+    entry point (:func:`tetlap.coefficient.check`); OptionError when it varies per tet."""
+    K = _coefficient.check(coefficient, V, T)
+    if K.shape == (3, 3):
+        return K
+    if not (K == K[0]).all():
+        raise OptionError(
+            "regular_weights takes a constant coefficient only (one (3, 3) tensor, or equal "
+            "values for every tet): this one varies from tet to tet, and the dual of a "
+            "varying metric has no single lifting (neighbouring tets' power centres are "
+            "computed in different metrics), so no vertex weights certify it")
+    return K[0] * np.eye(3) if K.ndim == 1 else K[0]
+
+
+def _in_metric(V, T, coefficient, **options) -> RegularWeights:
+    """:func:`regular_weights` in the metric ``K^-1`` of a constant ``K``: of the mesh
+    mapped by ``K^-1/2``. ``K = 4^j K'`` with ``K'`` of unit size (exact), so the map is
+    ``2^-j K'^-1/2``: the weights of ``V K'^-1/2`` times ``4^-j``, its masses times
+    ``sqrt(det K')`` (the ``2^-3j`` of the map and the ``2^3j`` of ``sqrt(det K)`` cancel)."""
+    V, T = _validated(V, T)
+    K = _constant_tensor(coefficient, V, T)
+    j = (int(np.frexp(np.abs(K).max())[1]) - 1) // 2
+    K = np.ldexp(K, -2 * j)                         # exact
+    lam, Q = np.linalg.eigh(K)
+    inverse_root = (Q / np.sqrt(lam)) @ Q.T
+    r = regular_weights(V @ inverse_root, T, **options)
+    with np.errstate(over="ignore", under="ignore"):
+        weights = np.ldexp(r.weights, -2 * j)
+    size = np.abs(weights[r.weights != 0])
+    if not ((size >= SMALLEST) & (size <= LARGEST)).all():
+        raise NonFiniteError(
+            f"the regular weights in the metric of this coefficient (squared lengths, about "
+            f"2^{-2 * j} times those of the mesh mapped by (K / 4^{j})^-1/2) leave the float64 "
+            "range: rescale the mesh or the coefficient")
+    root_det = float(np.sqrt(np.prod(lam)))
+    return dataclasses.replace(
+        r, weights=weights, mass_min_plain=r.mass_min_plain * root_det,
+        mass_min_weighted=r.mass_min_weighted * root_det,
+        notes=r.notes + ["in the metric K^-1 of the coefficient: the mesh mapped by K^-1/2"])
 
 
 @contextlib.contextmanager
