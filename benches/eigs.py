@@ -24,13 +24,13 @@ import argparse
 import json
 import os
 import pathlib
-import signal
-import subprocess
 import sys
 import tempfile
 import time
 
 import numpy as np
+
+from tetlap.benchmark_solve import isolated
 
 #: name -> (mesh, engine, k, boundary, mass)
 CASES = {}
@@ -113,23 +113,7 @@ def run_case(case: str, path: str) -> dict:
 
 
 def _child(case: str, path: str, cap: float) -> dict:
-    p = subprocess.Popen([sys.executable, __file__, "--child", case, path],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         start_new_session=True)
-    try:
-        stdout, stderr = p.communicate(timeout=cap)
-    except subprocess.TimeoutExpired:
-        os.killpg(p.pid, signal.SIGKILL)
-        p.communicate()
-        return {"status": f"timeout (> {cap:g} s)"}
-    finally:
-        if p.poll() is None:
-            os.killpg(p.pid, signal.SIGKILL)
-            p.communicate()
-    if p.returncode:
-        last = stderr.strip().splitlines()[-1] if stderr.strip() else p.returncode
-        return {"status": f"failed: {last}"}
-    return {"status": "ok", **json.loads(stdout.strip().splitlines()[-1])}
+    return isolated([sys.executable, __file__, "--child", case, path], cap)
 
 
 def run(cases, cap: float) -> list[dict]:

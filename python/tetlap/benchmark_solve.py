@@ -34,7 +34,7 @@ import numpy as np
 from . import _options
 from ._names import public_dir
 
-__all__ = ["MESHES", "CASES", "make_mesh", "run_case", "run", "table"]
+__all__ = ["MESHES", "CASES", "make_mesh", "run_case", "run", "table", "isolated"]
 __dir__ = public_dir(globals())
 
 #: The meshes of the bench: name -> how to make it.
@@ -130,8 +130,14 @@ def run_case(case: str, path: str) -> dict:
 
 
 def _child(case: str, path: str, cap: float) -> dict:
-    p = subprocess.Popen([sys.executable, "-m", "tetlap.benchmark_solve", case, path],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    return isolated([sys.executable, "-m", "tetlap.benchmark_solve", case, path], cap)
+
+
+def isolated(argv: list[str], cap: float) -> dict:
+    """Run ``argv`` (a case printing one JSON object on its last line) in its own process
+    group, killed with its children after ``cap`` seconds: ``{"status": "ok", **the
+    object}``, or ``{"status": "timeout (...)" | "failed: <its last error line>"}``."""
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          start_new_session=True)
     try:
         stdout, stderr = p.communicate(timeout=cap)
