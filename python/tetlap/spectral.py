@@ -33,13 +33,16 @@ import numpy as np
 from . import _arrays, assembly, calculus
 from ._docs import shared_docs
 from ._names import public_dir
-from .derivatives import dirichlet_energy, mass_energy
+from .derivatives import dirichlet_energy, mass_energy, vjp
 from .errors import NonFiniteError, OptionError, ShapeError
 from .solve._checks import flag
 from .solve._eigs import CLUSTER_RTOL
 
 __all__ = ["eigenvalue_gradients", "eigenvalue_vjp", "coefficient_gradients", "clusters"]
 __dir__ = public_dir(globals())
+
+#: The local edges ``(a, b)`` of a tet, in :func:`tetlap.element_contributions`' order.
+_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 
 
 def clusters(eigenvalues) -> np.ndarray:
@@ -80,11 +83,22 @@ def _split(columns: np.ndarray, coefficients: np.ndarray):
         columns[:, coefficients < 0] * root[:, coefficients < 0]
 
 
-def _gradient(V, T, vec, dirichlet_weights, mass_weights, kind, mass, options):
-    """``sum_j a_j d(-v_j^T L v_j)/dV + b_j d(v_j^T M v_j)/dV`` in at most four passes."""
+def _gradient(V, T, vec, dirichlet_weights, mass_weights, kind, mass, options,
+              coefficient=None):
+    """``sum_j a_j d(-v_j^T L v_j)/dV + b_j d(v_j^T M v_j)/dV`` in at most four passes;
+    with a scalar ``coefficient`` per tet, the Dirichlet part in one pass of
+    :func:`tetlap.vjp` (``L = sum_t c_t L_t``) with the per-tet cotangent
+    ``sum_j a_j (v_j[a] - v_j[b])^2`` on each tet's edge weights."""
     out = np.zeros(np.asarray(V, dtype=float).shape)
-    for weights, energy, k in ((dirichlet_weights, dirichlet_energy, kind),
-                               (mass_weights, mass_energy, mass)):
+    terms = [(mass_weights, mass_energy, mass)]
+    if coefficient is None:
+        terms.insert(0, (dirichlet_weights, dirichlet_energy, kind))
+    else:
+        T4 = _arrays.elements(T, 4)
+        diff = vec[T4[:, _EDGES[:, 0]]] - vec[T4[:, _EDGES[:, 1]]]      # (m, 6, k)
+        W = np.einsum("mek,k->me", diff * diff, dirichlet_weights)
+        out += vjp(V, T, kind, dL=W, coefficient=coefficient, **options).dV
+    for weights, energy, k in terms:
         for sign, F in zip((1.0, -1.0), _split(vec, weights)):
             if F.shape[1]:
                 out += sign * energy(V, T, F, k, **options)[1]
@@ -94,7 +108,7 @@ def _gradient(V, T, vec, dirichlet_weights, mass_weights, kind, mass, options):
 @shared_docs
 def eigenvalue_vjp(V, T, eigenvalues, eigenvectors, deigenvalues, kind="primal",
                    mass="barycentric", *, boundary_centres="circumcentric", weights=None,
-                   degenerate="raise", threads=None) -> np.ndarray:
+                   coefficient=None, degenerate="raise", threads=None) -> np.ndarray:
     """``sum_i g_i d lambda_i / dV`` for the pairs of ``-L v = lambda M v`` and cotangents
     ``g = deigenvalues``: the gradient of a loss of the spectrum.
 
@@ -114,6 +128,9 @@ def eigenvalue_vjp(V, T, eigenvalues, eigenvectors, deigenvalues, kind="primal",
     mass : {{"barycentric", "circumcentric", "fem"}}, default "barycentric"
         The mass matrix's kind (the ``"mixed"`` mass is not differentiable).
     {options}
+    coefficient : (m,) array-like of positive reals, optional
+        The scalar coefficient per tet ``L`` was built with (:func:`tetlap.vjp` takes it
+        the same way; tensors are not differentiated with respect to the vertices).
 
     Returns
     -------
@@ -144,13 +161,13 @@ def eigenvalue_vjp(V, T, eigenvalues, eigenvectors, deigenvalues, kind="primal",
     g = (np.bincount(groups, weights=g) / np.bincount(groups))[groups]
     options = {"boundary_centres": boundary_centres, "weights": weights, "degenerate": degenerate,
                "threads": threads}
-    return _gradient(V, T, vec, g, -g * lam, kind, mass, options)
+    return _gradient(V, T, vec, g, -g * lam, kind, mass, options, coefficient)
 
 
 @shared_docs
 def eigenvalue_gradients(V, T, eigenvalues, eigenvectors, kind="primal",
                          mass="barycentric", *, boundary_centres="circumcentric", weights=None,
-                         degenerate="raise", threads=None) -> np.ndarray:
+                         coefficient=None, degenerate="raise", threads=None) -> np.ndarray:
     """``d lambda_i / dV`` of every pair of ``-L v = lambda M v``: ``-v_i^T dL v_i -
     lambda_i v_i^T dM v_i``; the members of a cluster get the derivative of its mean.
 
@@ -166,6 +183,9 @@ def eigenvalue_gradients(V, T, eigenvalues, eigenvectors, kind="primal",
     mass : {{"barycentric", "circumcentric", "fem"}}, default "barycentric"
         The mass matrix's kind (the ``"mixed"`` mass is not differentiable).
     {options}
+    coefficient : (m,) array-like of positive reals, optional
+        The scalar coefficient per tet ``L`` was built with (:func:`tetlap.vjp` takes it
+        the same way; tensors are not differentiated with respect to the vertices).
 
     Returns
     -------
@@ -195,12 +215,9 @@ def eigenvalue_gradients(V, T, eigenvalues, eigenvectors, kind="primal",
         members = np.flatnonzero(groups == c)
         share = np.full(len(members), 1.0 / len(members))
         out[members] = _gradient(V, T, vec[:, members], share, -share * lam[members],
-                                 kind, mass, options)
+                                 kind, mass, options, coefficient)
     return out
 
-
-#: The local edges ``(a, b)`` of a tet, in :func:`tetlap.element_contributions`' order.
-_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 
 
 @shared_docs
