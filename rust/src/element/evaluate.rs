@@ -455,7 +455,7 @@ fn lanes_of(f: impl FnMut(usize) -> f64) -> Lanes {
 }
 
 /// The factors of a batch's lanes: each element's scalar coefficient (its Laplacian's
-/// values', [`Element::with`]) or its tensor `T`, and its density (its masses'); none: 1.
+/// values', `Element::with`) or its tensor `T`, and its density (its masses'); none: 1.
 #[derive(Debug, Clone, Copy)]
 pub struct Scales<T> {
     /// The lanes' scalar coefficients.

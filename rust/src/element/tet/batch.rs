@@ -237,7 +237,7 @@ impl Frames {
 
     /// The frames of tets (their `edges`, corners `x(lane)`) mapped by `tensors` (one per
     /// lane), as [`crate::element::metric::mapped_tet`] maps one tet, bit for bit: the
-    /// mapped edges ([`crate::element::metric::map_edges_lanes`]) scaled by a power of two,
+    /// mapped edges (`metric::map_edges_lanes`) scaled by a power of two,
     /// their determinant from the tet's, the shape test with its slack. Lanes whose frame
     /// is not [`Edges::framed`] are not plain.
     #[inline(always)]
