@@ -36,7 +36,7 @@ from .coefficient import _argument
 from .coefficient import check as check_coefficient
 from ._docs import shared_docs
 from ._options import renamed
-from .errors import DtypeError, OptionError, ShapeError
+from .errors import DegenerateElementError, DtypeError, OptionError, ShapeError
 from ._names import public_dir
 
 __all__ = ["vjp", "dirichlet_energy", "mass_energy", "coefficient_vjp", "VJP"]
@@ -166,9 +166,11 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
     coefficient : (m,) array-like of positive reals, optional
         ``L`` built with ``coefficient=c``, one scalar per tet (as :func:`tetlap.laplacian`
         takes it): ``L = sum_t c_t L_t(V)``, so the product is the plain one with each
-        tet's cotangent times ``c_t``. Tensors and ``weights=`` with a coefficient (power
-        centres that move with the metric) are not differentiated with respect to the
-        vertices (:class:`tetlap.OptionError`); with respect to the coefficient itself:
+        tet's cotangent times ``c_t``; or tensors ``(m, 3, 3)`` / ``(3, 3)`` for the primal
+        (``w_ab = -Vol g_a . K g_b`` differentiated in closed form, NumPy, per tet).
+        Tensors with the dual and ``weights=`` with a coefficient (centres that move with
+        the metric) are not differentiated with respect to the vertices
+        (:class:`tetlap.OptionError`); with respect to the coefficient itself:
         :func:`coefficient_vjp`.
     {options}
 
@@ -212,29 +214,81 @@ def vjp(V, T, kind="primal", mass="barycentric", *, dL=None, dM=None,
                     boundary_centres)
     n, m = V.shape[0], T.shape[0]
     dl = _laplacian_cotangent(dL, n, m)
+    tensors = None
     if coefficient is not None:
         dl = _scaled_by(coefficient, V, T, w, dL, dl)
+        if dl is not None and dl[0] == "tensors":
+            if kind != "primal":
+                raise OptionError(f"vjp differentiates a tensor coefficient with respect to the "
+                                  f"vertices for kind=\"primal\" only, got kind={kind!r} (the "
+                                  f"dual's centres move with the metric); scalars per tet are "
+                                  f"differentiated for every kind")
+            tensors, dl = dl[1:], None
     dm = _mass_cotangent(dM, n)
     dV, dweights, value = _core.vjp(V, T, {"laplacian": (kind, dl), "mass": (mass, dm)},
                                     weights=w, options=_options(boundary_centres, degenerate,
                                                                  threads))
+    if tensors is not None:
+        dV_K, value_K = _tensor_primal_vjp(V, T, *tensors, degenerate)
+        dV, value = dV + dV_K, float(value) + value_K
     return VJP(dV, dweights, float(value))
 
 
 def _scaled_by(coefficient, V, T, w, dL, dl):
     """The Laplacian's cotangent ``dl`` for ``L = sum_t c_t L_t``: per tet, times ``c_t``
-    (``coefficient`` validated as every function validates it; scalars only)."""
+    (``coefficient`` validated as every function validates it; scalars), or for tensors
+    ``("tensors", (m, 3, 3) K, (m, 6) cotangent)``, which :func:`_tensor_primal_vjp`
+    differentiates."""
     c = check_coefficient(coefficient, V, T)
-    if c.ndim != 1:
-        raise OptionError("vjp differentiates a scalar coefficient per tet ((m,)) with respect "
-                          "to the vertices, not a tensor: tetlap.coefficient_vjp "
-                          "differentiates with respect to the tensor itself")
     if w is not None:
         raise OptionError("vjp: weights= with a coefficient are not differentiated (their power "
                           "centres move with the coefficient's metric)")
     if dl is None:
         return None
-    return ("elements", _element_cotangent(dL, T, V.shape[0]) * c[:, None])
+    W = _element_cotangent(dL, T, V.shape[0])
+    if c.ndim == 1:
+        return ("elements", W * c[:, None])
+    return ("tensors", np.broadcast_to(c, (T.shape[0], 3, 3)), W)
+
+
+def _tensor_primal_vjp(V, T, K, W, degenerate: str) -> tuple[np.ndarray, float]:
+    """``(dphi/dV (n, 3), phi)`` for ``phi = sum_t sum_e W[t, e] w_e^t``, ``w^t`` the
+    primal weights of tet ``t`` with the tensor ``K_t``: ``w_ab = -Vol g_a . K g_b``.
+
+    With ``J`` the tet's edge matrix (columns ``x_k - x_0``), ``G = J^-T D`` its gradients
+    and ``A = D S D^T`` (``S`` the symmetric 4 x 4 of the cotangents, zero diagonal),
+    ``phi_t = -Vol / 2 tr(B A)``, ``B = J^-1 K J^-T``, and
+    ``dphi_t = tr(J^-1 dJ C)``, ``C = -Vol / 2 (tr(B A) I - 2 B A)``: row ``k`` of
+    ``C J^-1`` is ``dphi / dx_k`` (``k = 1..3``), ``x_0`` gets minus their sum. ``phi`` is
+    homogeneous of degree 1 in the coordinates, so its gradient is that of each tet scaled
+    by a power of two (exact), and ``K`` is divided by one (the gradient is linear in it)."""
+    G, vol, e = _gradients(V, T)
+    if degenerate == "raise" and not (vol > 0).all():
+        t = int(np.flatnonzero(~(vol > 0))[0])
+        raise DegenerateElementError(f"tet {t} has zero volume: its derivative is undefined",
+                                     element=t)
+    p = np.frexp(np.abs(K).max(axis=(1, 2)))[1]
+    Ks = np.ldexp(K, -p[:, None, None])
+    S = np.zeros((len(T), 4, 4))
+    a, b = _LOCAL_EDGES.T
+    S[:, a, b] = W
+    S[:, b, a] = W
+    D = np.array([[-1.0, 1, 0, 0], [-1, 0, 1, 0], [-1, 0, 0, 1]])
+    A = np.einsum("ia,tab,jb->tij", D, S, D)
+    Jinv = G[:, 1:]                                             # rows: gradients of lambda_k
+    B = np.einsum("tij,tjk,tlk->til", Jinv, Ks, Jinv)
+    BA = B @ A
+    trace = np.trace(BA, axis1=1, axis2=2)
+    C = -0.5 * vol[:, None, None] * (trace[:, None, None] * np.eye(3) - 2 * BA)
+    rows = np.ldexp(C @ Jinv, p[:, None, None])                 # (m, 3, 3): dphi/dx_1..3
+    rows[~(vol > 0)] = 0.0
+    dV = np.zeros((V.shape[0], 3))
+    for k in range(3):
+        np.add.at(dV, T[:, k + 1], rows[:, k])
+        np.add.at(dV, T[:, 0], -rows[:, k])
+    w = element_contributions(V, T, "primal", coefficient=np.ascontiguousarray(K),
+                              degenerate=degenerate)
+    return dV, float(np.sum(W * w))
 
 
 def _columns(f, n: int) -> np.ndarray:

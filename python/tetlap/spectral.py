@@ -86,8 +86,8 @@ def _split(columns: np.ndarray, coefficients: np.ndarray):
 def _gradient(V, T, vec, dirichlet_weights, mass_weights, kind, mass, options,
               coefficient=None):
     """``sum_j a_j d(-v_j^T L v_j)/dV + b_j d(v_j^T M v_j)/dV`` in at most four passes;
-    with a scalar ``coefficient`` per tet, the Dirichlet part in one pass of
-    :func:`tetlap.vjp` (``L = sum_t c_t L_t``) with the per-tet cotangent
+    with a ``coefficient``, the Dirichlet part in one pass of :func:`tetlap.vjp` with the
+    per-tet cotangent
     ``sum_j a_j (v_j[a] - v_j[b])^2`` on each tet's edge weights."""
     out = np.zeros(np.asarray(V, dtype=float).shape)
     terms = [(mass_weights, mass_energy, mass)]
@@ -128,9 +128,9 @@ def eigenvalue_vjp(V, T, eigenvalues, eigenvectors, deigenvalues, kind="primal",
     mass : {{"barycentric", "circumcentric", "fem"}}, default "barycentric"
         The mass matrix's kind (the ``"mixed"`` mass is not differentiable).
     {options}
-    coefficient : (m,) array-like of positive reals, optional
-        The scalar coefficient per tet ``L`` was built with (:func:`tetlap.vjp` takes it
-        the same way; tensors are not differentiated with respect to the vertices).
+    coefficient : array-like, optional
+        The coefficient ``L`` was built with, as :func:`tetlap.vjp` takes it: scalars per
+        tet for every kind, tensors for the primal.
 
     Returns
     -------
@@ -183,9 +183,9 @@ def eigenvalue_gradients(V, T, eigenvalues, eigenvectors, kind="primal",
     mass : {{"barycentric", "circumcentric", "fem"}}, default "barycentric"
         The mass matrix's kind (the ``"mixed"`` mass is not differentiable).
     {options}
-    coefficient : (m,) array-like of positive reals, optional
-        The scalar coefficient per tet ``L`` was built with (:func:`tetlap.vjp` takes it
-        the same way; tensors are not differentiated with respect to the vertices).
+    coefficient : array-like, optional
+        The coefficient ``L`` was built with, as :func:`tetlap.vjp` takes it: scalars per
+        tet for every kind, tensors for the primal.
 
     Returns
     -------
