@@ -24,8 +24,9 @@ import dataclasses
 
 import numpy as np
 
-#: The edges of a tet as local corner pairs, and the two other corners of each.
-_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
+from .assembly import _LOCAL_EDGES as _EDGES
+
+#: The two other corners of each of a tet's local edges (``_EDGES``).
 _OTHERS = np.array([[2, 3], [1, 3], [1, 2], [0, 3], [0, 2], [0, 1]])
 #: The faces of a tet, ``_FACES[l]`` opposite corner ``l``.
 _FACES = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])

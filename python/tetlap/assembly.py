@@ -13,11 +13,14 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
-from ._options import centres_used, weights_used
 from . import coefficient as _coefficient
 from ._docs import shared_docs
-from ._options import renamed
+from ._options import centres_used, renamed, weights_used
 from ._names import public_dir
+
+#: The local edges ``(a, b)`` of a tet, in the order of the columns of
+#: :func:`element_contributions` (and of every per-tet edge array).
+_LOCAL_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 
 __all__ = [
     "laplacian",

@@ -31,7 +31,7 @@ import scipy.sparse as sp
 
 from . import _arrays, _core, _sparse
 from ._options import centres_used, weights_used
-from .assembly import _options, element_contributions
+from .assembly import _LOCAL_EDGES, _options, element_contributions
 from .coefficient import _argument
 from .coefficient import check as check_coefficient
 from ._docs import shared_docs
@@ -420,10 +420,6 @@ def mass_energy(V, T, f, kind="barycentric", *, boundary_centres="circumcentric"
     """
     return _energy(V, T, f, None, kind, weights, boundary_centres, degenerate, threads,
                    return_weights_gradient)
-
-
-#: The local edges of a tet, in the order of :func:`tetlap.element_contributions`.
-_LOCAL_EDGES = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
 
 
 def _element_cotangent(dL, T: np.ndarray, n: int) -> np.ndarray:

@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _arrays, assembly, calculus
+from .assembly import _LOCAL_EDGES
 from ._docs import shared_docs
 from ._names import public_dir
 from .derivatives import dirichlet_energy, mass_energy, vjp
@@ -40,9 +41,6 @@ from .solve._eigs import CLUSTER_RTOL
 
 __all__ = ["eigenvalue_gradients", "eigenvalue_vjp", "coefficient_gradients", "clusters"]
 __dir__ = public_dir(globals())
-
-#: The local edges ``(a, b)`` of a tet, in :func:`tetlap.element_contributions`' order.
-_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 
 
 def clusters(eigenvalues) -> np.ndarray:
@@ -83,6 +81,14 @@ def _split(columns: np.ndarray, coefficients: np.ndarray):
         columns[:, coefficients < 0] * root[:, coefficients < 0]
 
 
+def _edge_squares(vec: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """(m, 6, k): ``(v[a] - v[b])^2`` over each tet's local edges ``(a, b)`` for each
+    column ``v`` of ``vec``: the derivative of ``-v^T L v`` with respect to the tet's own
+    edge weights."""
+    diff = vec[T[:, _LOCAL_EDGES[:, 0]]] - vec[T[:, _LOCAL_EDGES[:, 1]]]
+    return diff * diff
+
+
 def _gradient(V, T, vec, dirichlet_weights, mass_weights, kind, mass, options,
               coefficient=None):
     """``sum_j a_j d(-v_j^T L v_j)/dV + b_j d(v_j^T M v_j)/dV`` in at most four passes;
@@ -94,9 +100,7 @@ def _gradient(V, T, vec, dirichlet_weights, mass_weights, kind, mass, options,
     if coefficient is None:
         terms.insert(0, (dirichlet_weights, dirichlet_energy, kind))
     else:
-        T4 = _arrays.elements(T, 4)
-        diff = vec[T4[:, _EDGES[:, 0]]] - vec[T4[:, _EDGES[:, 1]]]      # (m, 6, k)
-        W = np.einsum("mek,k->me", diff * diff, dirichlet_weights)
+        W = _edge_squares(vec, _arrays.elements(T, 4)) @ dirichlet_weights
         out += vjp(V, T, kind, dL=W, coefficient=coefficient, **options).dV
     for weights, energy, k in terms:
         for sign, F in zip((1.0, -1.0), _split(vec, weights)):
@@ -287,8 +291,7 @@ def coefficient_gradients(V, T, eigenvalues, eigenvectors, kind="primal", *,
     else:
         W = assembly.element_contributions(V, T, kind, boundary_centres=boundary_centres,
                                            degenerate=degenerate, threads=threads)
-        diff = vec[T[:, _EDGES[:, 0]]] - vec[T[:, _EDGES[:, 1]]]   # (m, 6, k)
-        per_pair = np.einsum("me,mek->km", W, diff * diff)
+        per_pair = np.einsum("me,mek->km", W, _edge_squares(vec, T))
     groups = clusters(lam)
     sizes = np.bincount(groups)
     means = np.zeros((len(sizes),) + per_pair.shape[1:])
